@@ -1,5 +1,7 @@
 //! Sub-commands of `neus-aug`. Each lives in its own file; this file only lists them.
 
+mod augment;
+
 use clap::{Parser, Subcommand};
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
@@ -14,6 +16,9 @@ pub struct Cli {
 pub enum Command {
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect { scene: std::path::PathBuf },
+    /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
+    /// applied to one image (--apply KIND:v IN.png OUT.png).
+    Augment(augment::AugmentArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -22,5 +27,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             "inspect {}: scene loading lands with the foundation issue",
             scene.display()
         ),
+        Command::Augment(args) => augment::run(args),
     }
 }
