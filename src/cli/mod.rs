@@ -2,6 +2,8 @@
 
 use clap::{Parser, Subcommand};
 
+mod inspect;
+
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
 #[derive(Debug, Parser)]
 #[command(name = "neus-aug", version, about)]
@@ -13,14 +15,11 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
-    Inspect { scene: std::path::PathBuf },
+    Inspect(inspect::InspectArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Inspect { scene } => anyhow::bail!(
-            "inspect {}: scene loading lands with the foundation issue",
-            scene.display()
-        ),
+        Command::Inspect(args) => inspect::run(args),
     }
 }
