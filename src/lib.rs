@@ -5,3 +5,4 @@
 //! `dtu_eval` crate). Nothing low in the stack knows about what sits above it.
 
 pub mod scene;
+pub mod train;
