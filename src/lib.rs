@@ -6,3 +6,4 @@
 
 pub mod augment;
 pub mod scene;
+pub mod train;

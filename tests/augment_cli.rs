@@ -1,8 +1,11 @@
 //! `neus-aug augment` end to end: `--apply` on PNG files, the contact sheet, clear errors on bad
 //! input, and the Pillow / colorsys cross-check (scripts/crosscheck_augment.py).
 
+mod common;
+
 use neus_aug::augment::{ImageOp, Manipulation};
 use neus_aug::scene::image::RgbImage;
+use neus_aug::scene::{LoadOptions, Scene};
 use rand::SeedableRng;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -152,6 +155,35 @@ fn contact_sheet_is_written_with_its_legend() {
 }
 
 #[test]
+fn contact_sheet_of_a_scene_folder_shows_the_chosen_view() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_dir = dir.path().join("scene");
+    common::write_random_scene(&scene_dir, 3, 5, 40, 30);
+    let out = dir.path().join("sheet");
+    let o = neus_aug(&["augment", s(&scene_dir), "--out", s(&out), "--view", "1"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sheet = RgbImage::load(&out.join("contact_sheet.png")).unwrap();
+    assert_eq!(
+        (sheet.width, sheet.height),
+        (6 * 40 + 7 * 4, 7 * 30 + 8 * 4)
+    );
+    // Row 0, column 2 is brightness at p = 0: view 1 itself.
+    let scene = Scene::load(&scene_dir, &LoadOptions::default()).unwrap();
+    let view = &scene.views[1].image;
+    let (x0, y0) = (4 + 2 * (40 + 4), 4);
+    for (x, y) in [(0, 0), (17, 9), (39, 29)] {
+        assert_eq!(
+            sheet.get(x0 + x, y0 + y),
+            view.get(x, y),
+            "pixel ({x}, {y})"
+        );
+    }
+    let o = neus_aug(&["augment", s(&scene_dir), "--out", s(&out), "--view", "3"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("has 3 views"), "{err}");
+}
+
+#[test]
 fn bad_input_gives_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let (input, _) = write_test_image(dir.path());
@@ -191,7 +223,11 @@ fn bad_input_gives_clear_errors() {
             "missing.png",
         ),
         (&[s(&input)], "--out DIR is required"),
-        (&[s(dir.path()), "--out", s(&out)], "is a directory"),
+        (&[s(dir.path()), "--out", s(&out)], "cannot load scene"),
+        (
+            &[s(&input), "--out", s(&out), "--view", "2"],
+            "needs a scene folder",
+        ),
     ];
     for (args, expect) in cases {
         let o = neus_aug(&[&["augment"], *args].concat());

@@ -1,13 +1,15 @@
 //! `neus-aug augment`: look at the augmentations before training.
 //!
 //! - `neus-aug augment INPUT --out DIR`: writes `DIR/contact_sheet.png` (one view under every
-//!   manipulation and degradation) and `DIR/contact_sheet.txt` (what each cell is).
+//!   manipulation and degradation) and `DIR/contact_sheet.txt` (what each cell is). INPUT is a
+//!   PNG or a scene folder (`--view N` picks the view, default 0).
 //! - `neus-aug augment --apply KIND:v IN.png OUT.png [--seed N]`: one manipulation (`v = p`) or
 //!   degradation (`v = q`, optional) applied to one image, so any image tool can check it.
 
 use anyhow::{bail, Context};
 use neus_aug::augment::{contact_sheet, downscale_to_fit, AugmentConfig, ImageOp};
 use neus_aug::scene::image::RgbImage;
+use neus_aug::scene::{LoadOptions, Scene};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use std::path::{Path, PathBuf};
@@ -25,7 +27,7 @@ use std::path::{Path, PathBuf};
                   neus-aug augment --apply gaussian:0.05 --seed 3 in.png out.png"
 )]
 pub struct AugmentArgs {
-    /// Sheet mode: the image (PNG) to show. With --apply: IN.png OUT.png.
+    /// Sheet mode: the image (PNG) or scene folder to show. With --apply: IN.png OUT.png.
     #[arg(value_name = "PATHS")]
     paths: Vec<PathBuf>,
     /// Apply one manipulation (KIND:p) or degradation (KIND:q) to IN.png and write OUT.png.
@@ -34,6 +36,9 @@ pub struct AugmentArgs {
     /// Sheet mode: directory for contact_sheet.png and contact_sheet.txt (created if missing).
     #[arg(long, value_name = "DIR", conflicts_with = "apply")]
     out: Option<PathBuf>,
+    /// Sheet mode with a scene folder: which view to show.
+    #[arg(long, default_value_t = 0)]
+    view: usize,
     /// Seed of the random degradations.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -81,7 +86,7 @@ fn sheet(args: &AugmentArgs) -> anyhow::Result<()> {
     if args.max_size == 0 {
         bail!("--max-size must be at least 1 pixel");
     }
-    let view = load_view(input)?;
+    let view = load_view(input, args.view, args.max_size)?;
     let view = downscale_to_fit(&view, args.max_size);
     let sheet = contact_sheet(&view, &AugmentConfig::default(), args.seed)?;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
@@ -101,15 +106,45 @@ fn sheet(args: &AugmentArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The view to show: a PNG file. (A scene folder will be accepted once the scene loader lands;
-/// until then a folder is a clear error pointing at its images.)
-fn load_view(input: &Path) -> anyhow::Result<RgbImage> {
-    if input.is_dir() {
-        bail!(
-            "{} is a directory: pass one of its images (e.g. {}) until scene folders are supported",
-            input.display(),
-            input.join("image/000000.png").display()
-        );
+/// The view to show: a PNG file, or view `view` of a scene folder (DTU layout, loaded with
+/// [`Scene::load`], so "view 0" means what it means everywhere else). A scene is decoded already
+/// reduced to about `max_size` (a real DTU scene is 49 views of 1600×1200, 1.1 GB as floats).
+fn load_view(input: &Path, view: usize, max_size: usize) -> anyhow::Result<RgbImage> {
+    if !input.is_dir() {
+        if view != 0 {
+            bail!(
+                "--view {view} needs a scene folder; {} is a file",
+                input.display()
+            );
+        }
+        return Ok(RgbImage::load(input)?);
     }
-    Ok(RgbImage::load(input)?)
+    let downscale = any_png_size(&input.join("image"))
+        .map(|(w, h)| (w.max(h) as usize / max_size).max(1))
+        .unwrap_or(1);
+    let opts = LoadOptions {
+        downscale: downscale as u32,
+        masks: false,
+    };
+    let scene = Scene::load(input, &opts)
+        .with_context(|| format!("cannot load scene {}", input.display()))?;
+    let n = scene.views.len();
+    match scene.views.into_iter().nth(view) {
+        Some(v) => Ok(v.image),
+        None => bail!(
+            "--view {view}: scene {} has {n} views (0..={})",
+            input.display(),
+            n - 1
+        ),
+    }
+}
+
+/// Width and height of some PNG in `dir` (all views of a DTU scene share one size).
+fn any_png_size(dir: &Path) -> Option<(u32, u32)> {
+    std::fs::read_dir(dir)
+        .ok()?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .find(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+        .and_then(|p| image::image_dimensions(p).ok())
 }

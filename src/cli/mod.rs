@@ -4,6 +4,8 @@ mod augment;
 
 use clap::{Parser, Subcommand};
 
+mod inspect;
+
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
 #[derive(Debug, Parser)]
 #[command(name = "neus-aug", version, about)]
@@ -15,7 +17,7 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
-    Inspect { scene: std::path::PathBuf },
+    Inspect(inspect::InspectArgs),
     /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
     /// applied to one image (--apply KIND:v IN.png OUT.png).
     Augment(augment::AugmentArgs),
@@ -23,10 +25,7 @@ pub enum Command {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Inspect { scene } => anyhow::bail!(
-            "inspect {}: scene loading lands with the foundation issue",
-            scene.display()
-        ),
+        Command::Inspect(args) => inspect::run(args),
         Command::Augment(args) => augment::run(args),
     }
 }
