@@ -95,7 +95,7 @@ mod views;
 
 pub use config::{AugMode, AugmentConfig, DiaWidths, SiaIntensities};
 pub use degradation::{degrade_views, motion_blur_kernel, Degradation, DegradationKind};
-pub use manipulation::{gray_mean, luma, Manipulation, PixelSource};
+pub use manipulation::{gray_mean, luma, Manipulation, PixelSource, LUMA_WEIGHTS};
 pub use sampler::{AugChoice, AugSample, AugSampler, PixelRef};
 pub use sheet::{contact_sheet, downscale_to_fit, ContactSheet};
 pub use spec::ImageOp;
