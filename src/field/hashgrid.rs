@@ -20,6 +20,9 @@
 //! levels nearly all of them); its backward sums those taps' corner gradients locally before one
 //! scatter. [`HashGrid::encode_naive`] is the slow reference both are tested against.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::config::HashGridConfig;
 use super::Real;
 use rand::Rng;
@@ -158,7 +161,17 @@ impl HashGrid {
             c[0].wrapping_add(c[1].wrapping_mul(r))
                 .wrapping_add(c[2].wrapping_mul(r.wrapping_mul(r)))
         };
-        lvl.offset + (i % lvl.size) as usize
+        // Hashed levels have a power-of-two size (mask); dense indices exceed the size only on
+        // the upper border (corner = resolution) or for points outside [0,1], so the division is
+        // rare.
+        let i = if lvl.size.is_power_of_two() {
+            i & (lvl.size - 1)
+        } else if i >= lvl.size {
+            i % lvl.size
+        } else {
+            i
+        };
+        lvl.offset + i as usize
     }
 
     /// Cell and fractional position of `u ∈ [0,1]³` on a level (`pos = scale·u + 0.5`). Positions
@@ -218,7 +231,24 @@ impl HashGrid {
         out: &mut [T],
         rows: &[usize; N],
     ) {
-        let f = self.n_features;
+        match self.n_features {
+            2 => self.encode_group_f::<T, N, 2>(table, pts, radius, active, out, rows),
+            _ => self.encode_group_f::<T, N, 0>(table, pts, radius, active, out, rows),
+        }
+    }
+
+    /// [`encode_group`](Self::encode_group) with the feature count fixed at compile time (`FC`),
+    /// or read at run time (`FC = 0`).
+    fn encode_group_f<T: Real, const N: usize, const FC: usize>(
+        &self,
+        table: &[T],
+        pts: &[[T; 3]; N],
+        radius: T,
+        active: usize,
+        out: &mut [T],
+        rows: &[usize; N],
+    ) {
+        let f = if FC == 0 { self.n_features } else { FC };
         let xd = self.xyz_dim();
         let mut u = [[T::ZERO; 3]; N];
         for p in 0..N {
@@ -282,7 +312,22 @@ impl HashGrid {
         rows: &[usize; N],
         grad: &mut [T],
     ) {
-        let f = self.n_features;
+        match self.n_features {
+            2 => self.encode_group_backward_f::<T, N, 2>(pts, radius, active, d_out, rows, grad),
+            _ => self.encode_group_backward_f::<T, N, 0>(pts, radius, active, d_out, rows, grad),
+        }
+    }
+
+    fn encode_group_backward_f<T: Real, const N: usize, const FC: usize>(
+        &self,
+        pts: &[[T; 3]; N],
+        radius: T,
+        active: usize,
+        d_out: &[T],
+        rows: &[usize; N],
+        grad: &mut [T],
+    ) {
+        let f = if FC == 0 { self.n_features } else { FC };
         let xd = self.xyz_dim();
         let mut u = [[T::ZERO; 3]; N];
         for p in 0..N {

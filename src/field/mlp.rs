@@ -9,6 +9,9 @@
 //! and the `gemm` crate after the comparison in `benches/field.rs` (see the report in the bench's
 //! output); [`linear_forward_naive`] is the slow reference the tests compare against.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::Real;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
@@ -193,6 +196,8 @@ pub struct Mlp {
 #[derive(Debug, Default, Clone)]
 pub struct MlpTape<T> {
     pub acts: Vec<Vec<T>>,
+    /// `deriv[l]`: the activation's derivative at hidden layer `l`, same shape as `acts[l]`.
+    pub deriv: Vec<Vec<T>>,
 }
 
 impl Mlp {
@@ -286,6 +291,7 @@ impl Mlp {
     pub fn forward_hidden<T: Real>(&self, p: &[T], x: &[T], n: usize, tape: &mut MlpTape<T>) {
         let nh = self.n_layers() - 1;
         tape.acts.resize_with(nh, Vec::new);
+        tape.deriv.resize_with(nh, Vec::new);
         for l in 0..nh {
             let (d_in, d_out) = (self.dims[l], self.dims[l + 1]);
             let (w, b) = self.wb(p, l);
@@ -295,8 +301,25 @@ impl Mlp {
                 let input: &[T] = if l == 0 { x } else { &tape.acts[l - 1] };
                 linear_forward(w, b, input, n, d_in, d_out, &mut y);
             }
-            let act = self.hidden;
-            y.iter_mut().for_each(|v| *v = act.apply(*v));
+            let dv = &mut tape.deriv[l];
+            dv.resize(n * d_out, T::ZERO);
+            match self.hidden {
+                Activation::Relu => {
+                    for (v, d) in y.iter_mut().zip(dv.iter_mut()) {
+                        let pos = *v > T::ZERO;
+                        *v = if pos { *v } else { T::ZERO };
+                        *d = if pos { T::ONE } else { T::ZERO };
+                    }
+                }
+                Activation::Softplus { beta } => {
+                    let b = T::from_f32(beta);
+                    for (v, d) in y.iter_mut().zip(dv.iter_mut()) {
+                        let (a, s) = T::softplus_and_grad(*v, b);
+                        *v = a;
+                        *d = s;
+                    }
+                }
+            }
             tape.acts[l] = y;
         }
     }
@@ -347,9 +370,8 @@ impl Mlp {
         let nh = self.n_layers() - 1;
         for l in (0..nh).rev() {
             let (d_in, d_out) = (self.dims[l], self.dims[l + 1]);
-            let act = self.hidden;
-            for (d, &y) in d_h[..n * d_out].iter_mut().zip(&tape.acts[l][..n * d_out]) {
-                *d *= act.derivative_from_output(y);
+            for (d, &s) in d_h[..n * d_out].iter_mut().zip(&tape.deriv[l][..n * d_out]) {
+                *d *= s;
             }
             let (w, _) = self.wb(p, l);
             let input: &[T] = if l == 0 { x } else { &tape.acts[l - 1] };

@@ -7,6 +7,9 @@
 //! Directions are not trained, but the backward (gradient with respect to the direction) is
 //! provided and checked so the encoding can sit anywhere in a differentiable pipeline.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::Real;
 
 /// Number of coefficients (`4²`).

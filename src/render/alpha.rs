@@ -12,6 +12,9 @@
 //! Sigmoids are evaluated in the overflow-free form, so `s` up to 1e6 gives finite values and
 //! finite (possibly zero) derivatives.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use crate::field::{sigmoid, Real};
 
 /// `inv_s = exp(10·v)` clipped to `[1e-6, 1e6]` (instant-nsr-pl `VarianceNetwork.inv_s` and the

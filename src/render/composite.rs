@@ -8,6 +8,9 @@
 //! The backward never divides by `1 − α` (all-ones alphas are fine): with `q_i = ∂L/∂w_i` and the
 //! suffix sums `S_m = 0`, `S_i = α_i q_i + (1 − α_i) S_{i+1}`, it is `∂L/∂α_i = T_i (q_i − S_{i+1})`.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use crate::field::Real;
 
 /// Composited values of one ray.

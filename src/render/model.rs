@@ -12,6 +12,9 @@
 //! buffer (shard 0 directly in the caller's), and the buffers are summed in shard order. The bits
 //! of the result depend only on the inputs, the seed and `shards`, never on thread scheduling.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::alpha::{inv_s_from_variance, neus_alpha, AlphaGrad};
 use super::composite::{composite_backward, composite_forward};
 use super::occupancy::{OccupancyConfig, OccupancyGrid};
@@ -25,6 +28,9 @@ use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
+
+/// One rendered ray: index, colour, opacity, depth, normal.
+type RayResult = (usize, [f32; 3], f32, f32, [f32; 3]);
 
 /// Rendering and sampling settings (instant-nsr-pl `configs/neus-dtu-wmask.yaml`, `model:`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -560,6 +566,7 @@ impl NeusModel {
     /// Accumulates (adds) `∂total/∂params` into `grads` (same layout as `params`), returns the
     /// loss terms. `step_seed` seeds the stratified jitter. `occ`: the occupancy grid (or `None`
     /// to march everything). Generic over [`Real`] so the gradient checks run it in `f64`.
+    #[allow(clippy::too_many_arguments)]
     pub fn train_step<T: Real>(
         &self,
         params: &[T],
@@ -727,7 +734,7 @@ impl NeusModel {
             n_valid: 0,
         };
         let bounds = self.chunks(&samples);
-        let parts: Vec<Vec<(usize, [f32; 3], f32, f32, [f32; 3])>> = (0..bounds.len() - 1)
+        let parts: Vec<Vec<RayResult>> = (0..bounds.len() - 1)
             .into_par_iter()
             .map(|c| {
                 let mut scratch = Scratch::default();
@@ -828,7 +835,7 @@ impl NeusModel {
         sc: &mut Scratch<T>,
         sums: &mut Sums,
         times: &mut PhaseTimes,
-        render_out: Option<&mut Vec<(usize, [f32; 3], f32, f32, [f32; 3])>>,
+        render_out: Option<&mut Vec<RayResult>>,
     ) {
         let samples = ctx.samples;
         let s0 = samples.ray_start[r0];

@@ -8,6 +8,9 @@
 //! otherwise), intervals `[t, t + Δ]` whose midpoint is inside the box, kept only when the
 //! occupancy grid marks the midpoint's cell occupied.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::occupancy::OccupancyGrid;
 
 /// Entry and exit distances of a ray through `[-r, r]³`, with the entry clamped to `t ≥ 0`
@@ -30,7 +33,7 @@ pub fn ray_aabb(o: [f32; 3], d: [f32; 3], r: f32) -> Option<(f32, f32)> {
         t1 = t1.min(a.max(b));
     }
     let t0 = t0.max(0.0);
-    if !(t1 > t0) || !t0.is_finite() || !t1.is_finite() {
+    if t1 <= t0 || !t0.is_finite() || !t1.is_finite() {
         return None;
     }
     Some((t0, t1))
@@ -83,7 +86,7 @@ pub fn march_rays(
                 // Index-based positions: no drift from repeated addition.
                 let t0 = t_start + k as f32 * step;
                 let mid = t0 + 0.5 * step;
-                if !(mid < tmax) {
+                if mid >= tmax || mid.is_nan() {
                     break;
                 }
                 k += 1;
