@@ -711,8 +711,8 @@ impl NeusModel {
         })
     }
 
-    /// Renders rays without gradients (held-out views). `step` picks the schedule's active levels;
-    /// rendering uses the finished cos anneal, no jitter, and the occupancy grid if given.
+    /// Renders rays without gradients (held-out views) with the given schedule (normally
+    /// [`ModelConfig::inference_schedule`]), no jitter, and the occupancy grid if given.
     pub fn render(
         &self,
         params: &[f32],
@@ -1228,4 +1228,71 @@ pub fn next_num_rays(
     let target = (current as f64 * (sample_budget as f64 / used)) as usize;
     let next = (current as f64 * 0.9 + target as f64 * 0.1) as usize;
     next.clamp(1, max_rays.max(1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_round_trips_through_toml_and_rejects_unknown_keys() {
+        let c = ModelConfig::default();
+        let text = toml::to_string(&c).unwrap();
+        let back: ModelConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, c);
+        let partial: ModelConfig = toml::from_str("[field.hash_grid]\nn_levels = 8\n").unwrap();
+        assert_eq!(partial.field.hash_grid.n_levels, 8);
+        assert_eq!(partial.render, RenderConfig::default());
+        let err = toml::from_str::<ModelConfig>("[render]\nradiuss = 2.0\n").unwrap_err();
+        assert!(err.to_string().contains("radiuss"), "{err}");
+    }
+
+    #[test]
+    fn layout_and_defaults() {
+        let m = NeusModel::new(ModelConfig::default()).unwrap();
+        let names: Vec<&str> = m.layout.groups.iter().map(|g| g.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "hash_grid",
+                "sdf_mlp",
+                "color_mlp",
+                "variance",
+                "appearance"
+            ]
+        );
+        assert_eq!(m.sdf_mlp.dims, [35, 64, 13]);
+        assert_eq!(m.color_mlp.dims, [13 + 16 + 3, 64, 64, 3]);
+        let p = m.init_params(1);
+        assert_eq!(p, m.init_params(1), "seeded");
+        assert!((m.inv_s(&p) - 3f32.exp()).abs() < 1e-4);
+        assert_eq!(m.layout.group("variance").unwrap().lr_scale, 0.1);
+        let mut c = ModelConfig::default();
+        c.field.appearance = crate::field::config::AppearanceConfig {
+            n_codes: 6,
+            code_dim: 4,
+            with_scalar: true,
+        };
+        let m = NeusModel::new(c).unwrap();
+        assert_eq!(m.color_mlp.dims[0], 13 + 16 + 3 + 4 + 1);
+        let g = m.layout.group("appearance").unwrap();
+        assert_eq!(g.shape, [6, 4]);
+        assert!(
+            m.init_params(2)[g.range()].iter().all(|&v| v == 0.0),
+            "appearance starts at zero"
+        );
+        let mut bad = ModelConfig::default();
+        bad.field.appearance.with_scalar = true;
+        assert!(NeusModel::new(bad)
+            .unwrap_err()
+            .to_string()
+            .contains("with_scalar"));
+    }
+
+    #[test]
+    fn dynamic_ray_count() {
+        // Twice the budget used: move 10% of the way to half the rays.
+        assert_eq!(next_num_rays(1000, 2000, 1000, 8192), 950);
+        assert_eq!(next_num_rays(8000, 1, 1 << 20, 8192), 8192);
+    }
 }
