@@ -1,4 +1,6 @@
 //! Shared helpers of the field/render integration tests: a tiny model and a deterministic batch.
+// Each integration test uses a different subset of these helpers.
+#![allow(dead_code)]
 
 use neus_aug::field::config::{AppearanceConfig, ColorMlpConfig, HashGridConfig, SdfMlpConfig};
 use neus_aug::field::FieldConfig;
