@@ -4,4 +4,5 @@
 //! the simulator) → `augment` → `field` → `render` → `train` → `mesh` → evaluation (the
 //! `dtu_eval` crate). Nothing low in the stack knows about what sits above it.
 
+pub mod mesh;
 pub mod scene;
