@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 mod inspect;
+mod mcubes;
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
 #[derive(Debug, Parser)]
@@ -16,10 +17,14 @@ pub struct Cli {
 pub enum Command {
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect(inspect::InspectArgs),
+    /// Marching cubes on an analytic SDF (cross-check hook for scripts/crosscheck_mcubes.py).
+    #[command(hide = true)]
+    Mcubes(mcubes::McubesArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Inspect(args) => inspect::run(args),
+        Command::Mcubes(args) => mcubes::run(args),
     }
 }

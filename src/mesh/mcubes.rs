@@ -224,23 +224,20 @@ where
 {
     let [nx, ny, _] = coords.n;
     let batch = batch.max(1);
-    out.par_chunks_mut(batch).enumerate().try_for_each_init(
-        Vec::new,
-        |pts: &mut Vec<[f32; 3]>, (b, chunk)| {
+    let xs: Vec<f32> = coords.c[0].iter().map(|&x| x as f32).collect();
+    out.par_chunks_mut(batch)
+        .enumerate()
+        .try_for_each_init(Vec::new, |pts: &mut Vec<[f32; 3]>, (b, chunk)| {
             pts.clear();
-            let start = b * batch;
-            let (mut i, mut j, mut k) = (start % nx, (start / nx) % ny, k0 + start / (nx * ny));
-            for _ in 0..chunk.len() {
-                pts.push(coords.point(i, j, k));
-                i += 1;
-                if i == nx {
-                    i = 0;
-                    j += 1;
-                    if j == ny {
-                        j = 0;
-                        k += 1;
-                    }
-                }
+            // Row by row: y and z are constant along a row, x comes from the coordinate table.
+            let (mut n, end) = (b * batch, b * batch + chunk.len());
+            while n < end {
+                let (i0, row) = (n % nx, n / nx);
+                let (j, k) = (row % ny, k0 + row / ny);
+                let i1 = nx.min(i0 + end - n);
+                let (y, z) = (coords.c[1][j] as f32, coords.c[2][k] as f32);
+                pts.extend(xs[i0..i1].iter().map(|&x| [x, y, z]));
+                n += i1 - i0;
             }
             let vals = sdf(pts);
             if vals.len() != chunk.len() {
