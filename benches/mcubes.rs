@@ -31,7 +31,8 @@ struct Grid<'a> {
 
 impl ScalarSource for Grid<'_> {
     fn sample_scalar(&self, p: Vec3) -> Signed {
-        let idx = [p.x, p.y, p.z].map(|c| ((c * (self.n - 1) as f32).round() as usize).min(self.n - 1));
+        let idx =
+            [p.x, p.y, p.z].map(|c| ((c * (self.n - 1) as f32).round() as usize).min(self.n - 1));
         Signed(self.values[(idx[2] * self.n + idx[1]) * self.n + idx[0]])
     }
 }
@@ -75,13 +76,18 @@ fn main() {
         marching_cubes_values(&values, &grid, 0.0).expect("extract")
     });
     let (t_stream, streamed) = best_of(repeats, || marching_cubes(&sdf, &grid, &opts).expect("mc"));
-    assert_eq!(mesh, streamed, "streaming and in-memory extraction must agree");
+    assert_eq!(
+        mesh, streamed,
+        "streaming and in-memory extraction must agree"
+    );
     let (nv, nf) = (mesh.vertices.len(), mesh.faces.len());
     println!("RESULT grid_eval {t_eval:.4} 0 0");
     println!("RESULT extract {t_extract:.4} {nv} {nf}");
     println!("RESULT streaming {t_stream:.4} {nv} {nf}");
     println!("  grid evaluation (sample_grid)        {t_eval:8.3} s");
-    println!("  extraction only (values in memory)   {t_extract:8.3} s   {nv} vertices, {nf} faces");
+    println!(
+        "  extraction only (values in memory)   {t_extract:8.3} s   {nv} vertices, {nf} faces"
+    );
     println!("  streaming (SDF + extraction, slabs)  {t_stream:8.3} s");
 
     if oracle {
@@ -100,7 +106,9 @@ fn main() {
             (v.len() / 3, idx.len() / 3)
         });
         println!("RESULT isosurface {t_oracle:.4} {ov} {of}");
-        println!("  isosurface 0.1.0-alpha.0 (1 thread)  {t_oracle:8.3} s   {ov} vertices, {of} faces");
+        println!(
+            "  isosurface 0.1.0-alpha.0 (1 thread)  {t_oracle:8.3} s   {ov} vertices, {of} faces"
+        );
         println!(
             "  ratio isosurface / extraction: {:.1}x   isosurface / streaming: {:.1}x",
             t_oracle / t_extract,

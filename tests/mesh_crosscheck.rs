@@ -11,7 +11,9 @@ fn pymcubes_and_scikit_image_agree_on_analytic_sdfs() {
         .output()
         .is_ok_and(|o| o.status.success());
     if !ok {
-        eprintln!("SKIPPED: python3 is not installed, the PyMCubes/scikit-image cross-check cannot run");
+        eprintln!(
+            "SKIPPED: python3 is not installed, the PyMCubes/scikit-image cross-check cannot run"
+        );
         return;
     }
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/crosscheck_mcubes.py");

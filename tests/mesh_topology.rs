@@ -13,7 +13,12 @@ use rand::{Rng, SeedableRng};
 use std::f64::consts::PI;
 
 fn mesh_of(shape: Shape, grid: &GridSpec) -> TriMesh {
-    marching_cubes(&|p: &[[f32; 3]]| shape.eval_batch(p), grid, &McOptions::default()).unwrap()
+    marching_cubes(
+        &|p: &[[f32; 3]]| shape.eval_batch(p),
+        grid,
+        &McOptions::default(),
+    )
+    .unwrap()
 }
 
 #[test]
@@ -82,7 +87,10 @@ fn random_blobs_are_watertight() {
         };
         let m = mesh_of(shape, &grid);
         let r = TopologyReport::of(&m);
-        assert!(r.is_closed_manifold(), "trial {trial}: {shape} on {res:?}: {r:?}");
+        assert!(
+            r.is_closed_manifold(),
+            "trial {trial}: {shape} on {res:?}: {r:?}"
+        );
         assert!(r.euler_characteristic <= 2 * r.components as i64, "{r:?}");
         assert!(m.faces.is_empty() || signed_volume(&m) > 0.0);
     }
@@ -142,8 +150,14 @@ fn two_pass_refines_inside_the_padded_coarse_bounds() {
     for a in 0..3 {
         // 10 % of the extent, at least one coarse cell (z: 0.1·0.42 < 2/47).
         let pad = (0.1 * (hi[a] - lo[a])).max(cell[a]);
-        assert!((fine.min[a] - (lo[a] - pad).max(-1.0)).abs() < 1e-6, "axis {a}");
-        assert!((fine.max[a] - (hi[a] + pad).min(1.0)).abs() < 1e-6, "axis {a}");
+        assert!(
+            (fine.min[a] - (lo[a] - pad).max(-1.0)).abs() < 1e-6,
+            "axis {a}"
+        );
+        assert!(
+            (fine.max[a] - (hi[a] + pad).min(1.0)).abs() < 1e-6,
+            "axis {a}"
+        );
     }
     assert!(fine.max[2] - fine.min[2] < 0.6);
     assert_eq!(fine.res, [48; 3]);
@@ -156,9 +170,17 @@ fn two_pass_refines_inside_the_padded_coarse_bounds() {
             / m.vertices.len() as f64
     };
     assert!(out.mesh.faces.len() > coarse.faces.len());
-    assert!(err(&out.mesh) < 0.7 * err(&coarse), "{} vs {}", err(&out.mesh), err(&coarse));
+    assert!(
+        err(&out.mesh) < 0.7 * err(&coarse),
+        "{} vs {}",
+        err(&out.mesh),
+        err(&coarse)
+    );
     let r = TopologyReport::of(&out.mesh);
-    assert!(r.is_closed_manifold() && r.euler_characteristic == 0, "{r:?}");
+    assert!(
+        r.is_closed_manifold() && r.euler_characteristic == 0,
+        "{r:?}"
+    );
 }
 
 #[test]
@@ -183,7 +205,10 @@ fn refined_box_is_padded_by_at_least_one_coarse_cell_and_clamped() {
         faces: vec![[0, 1, 2]],
     };
     let g = refined_grid(&m, &grid, &opts).unwrap();
-    assert!((g.min[2] - 0.2).abs() < 1e-6 && (g.max[2] - 0.4).abs() < 1e-6, "{g:?}");
+    assert!(
+        (g.min[2] - 0.2).abs() < 1e-6 && (g.max[2] - 0.4).abs() < 1e-6,
+        "{g:?}"
+    );
     assert_eq!(g.max[0], 1.0);
     assert!((g.min[0] - 0.2 + 0.1).abs() < 1e-6, "{g:?}");
     assert!(refined_grid(&TriMesh::default(), &grid, &opts).is_none());

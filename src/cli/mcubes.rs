@@ -23,10 +23,20 @@ pub struct McubesArgs {
     #[arg(long, default_value_t = 64)]
     pub res: usize,
     /// Lower corner of the box, normalised space (`x,y,z`).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "-1,-1,-1")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        default_value = "-1,-1,-1"
+    )]
     pub min: Vec<f32>,
     /// Upper corner of the box, normalised space (`x,y,z`).
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true, default_value = "1,1,1")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        default_value = "1,1,1"
+    )]
     pub max: Vec<f32>,
     /// Iso level.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
@@ -138,7 +148,11 @@ fn run_inner(args: &McubesArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn write_npy(path: &std::path::Path, values: &[f32], [nx, ny, nz]: [usize; 3]) -> anyhow::Result<()> {
+fn write_npy(
+    path: &std::path::Path,
+    values: &[f32],
+    [nx, ny, nz]: [usize; 3],
+) -> anyhow::Result<()> {
     use npyz::WriterBuilder;
     use std::io::Write;
     let mut file = std::io::BufWriter::new(std::fs::File::create(path)?);

@@ -111,8 +111,8 @@ where
 /// `scale_mat`, DESIGN §3), computed in f64. `s > 0`, so the orientation is kept.
 pub fn to_world(mesh: &mut TriMesh, norm: &Normalization) {
     for v in &mut mesh.vertices {
-        for a in 0..3 {
-            v[a] = (norm.scale * v[a] as f64 + norm.center[a]) as f32;
+        for (x, c) in v.iter_mut().zip(norm.center) {
+            *x = (norm.scale * *x as f64 + c) as f32;
         }
     }
 }

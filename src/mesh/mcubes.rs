@@ -225,9 +225,9 @@ where
     let [nx, ny, _] = coords.n;
     let batch = batch.max(1);
     let xs: Vec<f32> = coords.c[0].iter().map(|&x| x as f32).collect();
-    out.par_chunks_mut(batch)
-        .enumerate()
-        .try_for_each_init(Vec::new, |pts: &mut Vec<[f32; 3]>, (b, chunk)| {
+    out.par_chunks_mut(batch).enumerate().try_for_each_init(
+        Vec::new,
+        |pts: &mut Vec<[f32; 3]>, (b, chunk)| {
             pts.clear();
             // Row by row: y and z are constant along a row, x comes from the coordinate table.
             let (mut n, end) = (b * batch, b * batch + chunk.len());

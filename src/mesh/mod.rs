@@ -23,6 +23,18 @@
 //! then the padded bounds of the coarse mesh), [`topology::TopologyReport`] (boundary and
 //! non-manifold edges, Euler characteristic), [`reference::marching_cubes_reference`] (the slow,
 //! obviously correct path the fast one is tested against) and [`sdf`] (analytic test shapes).
+//!
+//! ```
+//! use neus_aug::mesh::{marching_cubes, sdf::Shape, GridSpec, McOptions, TopologyReport};
+//!
+//! let torus = Shape::named("torus").unwrap();
+//! let grid = GridSpec::cube([-1.0; 3], [1.0; 3], 48);
+//! let mesh = marching_cubes(&|p: &[[f32; 3]]| torus.eval_batch(p), &grid, &McOptions::default())?;
+//! let topo = TopologyReport::of(&mesh);
+//! assert!(topo.is_closed_manifold());
+//! assert_eq!(topo.euler_characteristic, 0);
+//! # Ok::<(), neus_aug::mesh::McError>(())
+//! ```
 
 pub mod extract;
 mod mcubes;
