@@ -4,5 +4,7 @@
 //! the simulator) → `augment` → `field` → `render` → `train` → `mesh` → evaluation (the
 //! `dtu_eval` crate). Nothing low in the stack knows about what sits above it.
 
+pub mod augment;
 pub mod mesh;
 pub mod scene;
+pub mod train;

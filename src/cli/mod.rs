@@ -1,5 +1,7 @@
 //! Sub-commands of `neus-aug`. Each lives in its own file; this file only lists them.
 
+mod augment;
+
 use clap::{Parser, Subcommand};
 
 mod inspect;
@@ -17,6 +19,9 @@ pub struct Cli {
 pub enum Command {
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect(inspect::InspectArgs),
+    /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
+    /// applied to one image (--apply KIND:v IN.png OUT.png).
+    Augment(augment::AugmentArgs),
     /// Marching cubes on an analytic SDF (cross-check hook for scripts/crosscheck_mcubes.py).
     #[command(hide = true)]
     Mcubes(mcubes::McubesArgs),
@@ -25,6 +30,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Inspect(args) => inspect::run(args),
+        Command::Augment(args) => augment::run(args),
         Command::Mcubes(args) => mcubes::run(args),
     }
 }

@@ -1,0 +1,4 @@
+//! Training: optimiser, schedules, metrics, checkpoints and the training loop.
+
+pub mod metrics;
+pub mod schedule;
