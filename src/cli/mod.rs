@@ -5,6 +5,7 @@ mod augment;
 use clap::{Parser, Subcommand};
 
 mod inspect;
+mod mcubes;
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
 #[derive(Debug, Parser)]
@@ -21,11 +22,15 @@ pub enum Command {
     /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
     /// applied to one image (--apply KIND:v IN.png OUT.png).
     Augment(augment::AugmentArgs),
+    /// Marching cubes on an analytic SDF (cross-check hook for scripts/crosscheck_mcubes.py).
+    #[command(hide = true)]
+    Mcubes(mcubes::McubesArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Inspect(args) => inspect::run(args),
         Command::Augment(args) => augment::run(args),
+        Command::Mcubes(args) => mcubes::run(args),
     }
 }
