@@ -10,3 +10,4 @@ pub mod mesh;
 pub mod render;
 pub mod scene;
 pub mod train;
+pub mod reconstruct;

@@ -1,11 +1,11 @@
 //! Sub-commands of `neus-aug`. Each lives in its own file; this file only lists them.
 
-mod augment;
-
 use clap::{Parser, Subcommand};
 
+mod augment;
 mod inspect;
 mod mcubes;
+mod reconstruct;
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
 #[derive(Debug, Parser)]
@@ -17,6 +17,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Train NeuS on a scene, extract the mesh and score it (default: the embedded scene).
+    Reconstruct(Box<reconstruct::ReconstructArgs>),
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect(inspect::InspectArgs),
     /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
@@ -29,6 +31,7 @@ pub enum Command {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Reconstruct(args) => reconstruct::run(*args),
         Command::Inspect(args) => inspect::run(args),
         Command::Augment(args) => augment::run(args),
         Command::Mcubes(args) => mcubes::run(args),

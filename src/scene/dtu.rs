@@ -259,34 +259,6 @@ fn matrix4(
     Ok(m)
 }
 
-/// Area-average downscale by an integer factor (trailing rows/columns that do not fill a block
-/// are dropped, matching [`Camera::downscaled`]).
-fn downscale_channels(
-    data: &[f32],
-    width: usize,
-    height: usize,
-    channels: usize,
-    f: usize,
-) -> Vec<f32> {
-    let (w, h) = (width / f, height / f);
-    let norm = 1.0 / (f * f) as f32;
-    let mut out = vec![0.0; w * h * channels];
-    for y in 0..h {
-        for x in 0..w {
-            for c in 0..channels {
-                let mut acc = 0.0;
-                for dy in 0..f {
-                    for dx in 0..f {
-                        acc += data[((y * f + dy) * width + x * f + dx) * channels + c];
-                    }
-                }
-                out[(y * w + x) * channels + c] = acc * norm;
-            }
-        }
-    }
-    out
-}
-
 impl Scene {
     /// Loads a scene folder. Images are decoded in parallel.
     pub fn load(root: &Path, opts: &LoadOptions) -> Result<Self, SceneError> {
@@ -380,16 +352,8 @@ impl Scene {
                         });
                     }
                     let fu = f as usize;
-                    image = RgbImage {
-                        width: w / fu,
-                        height: h / fu,
-                        data: downscale_channels(&image.data, w, h, 3, fu),
-                    };
-                    mask = mask.map(|m| GrayImage {
-                        width: w / fu,
-                        height: h / fu,
-                        data: downscale_channels(&m.data, w, h, 1, fu),
-                    });
+                    image = image.downscaled(fu);
+                    mask = mask.map(|m| m.downscaled(fu));
                     camera = camera.downscaled(f);
                 }
                 Ok(View {

@@ -108,6 +108,17 @@ impl RgbImage {
         self.len() == 0
     }
 
+    /// Area-average downscale by an integer `factor` (`floor(size / factor)`; trailing rows and
+    /// columns that do not fill a block are dropped, matching `Camera::downscaled`). `factor`
+    /// must be at least 1.
+    pub fn downscaled(&self, factor: usize) -> Self {
+        Self {
+            width: self.width / factor,
+            height: self.height / factor,
+            data: downscale_channels(&self.data, self.width, self.height, 3, factor),
+        }
+    }
+
     /// Reads a PNG (8 or 16 bit; gray, gray+alpha, RGB or RGBA; alpha is dropped).
     pub fn load(path: &Path) -> Result<Self, ImageError> {
         let img = open(path)?.into_rgb32f();
@@ -152,6 +163,15 @@ impl GrayImage {
         self.data[y * self.width + x]
     }
 
+    /// Area-average downscale by an integer `factor` (see [`RgbImage::downscaled`]).
+    pub fn downscaled(&self, factor: usize) -> Self {
+        Self {
+            width: self.width / factor,
+            height: self.height / factor,
+            data: downscale_channels(&self.data, self.width, self.height, 1, factor),
+        }
+    }
+
     /// Reads a PNG as one channel. Colour masks (as DTU ships them: three equal channels) keep
     /// their first channel, as NeuS does (`models/dataset.py` uses `mask[..., :1]`).
     pub fn load(path: &Path) -> Result<Self, ImageError> {
@@ -187,6 +207,28 @@ impl GrayImage {
         }
         self.data.iter().filter(|&&v| v > 0.5).count() as f64 / self.data.len() as f64
     }
+}
+
+/// Area average over `f×f` blocks of an interleaved `[h][w][channels]` buffer.
+fn downscale_channels(data: &[f32], width: usize, height: usize, channels: usize, f: usize) -> Vec<f32> {
+    assert!(f >= 1, "downscale factor must be at least 1");
+    let (w, h) = (width / f, height / f);
+    let norm = 1.0 / (f * f) as f32;
+    let mut out = vec![0.0; w * h * channels];
+    for y in 0..h {
+        for x in 0..w {
+            for c in 0..channels {
+                let mut acc = 0.0;
+                for dy in 0..f {
+                    for dx in 0..f {
+                        acc += data[((y * f + dy) * width + x * f + dx) * channels + c];
+                    }
+                }
+                out[(y * w + x) * channels + c] = acc * norm;
+            }
+        }
+    }
+    out
 }
 
 fn open(path: &Path) -> Result<image::DynamicImage, ImageError> {

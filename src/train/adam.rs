@@ -6,7 +6,7 @@
 //! `p ← p − (lr / (1−β1^t)) · m / (√v / √(1−β2^t) + eps)`.
 //!
 //! Each parameter group's learning rate is `lr · lr_scale(group) · factor`, where `factor` comes
-//! from the schedule and is passed explicitly ([`lr_factor`]).
+//! from the schedule and is passed explicitly ([`crate::train::schedule::LrSchedule`]).
 //!
 //! NaN guard: a step whose gradients or resulting parameters would contain NaN or ±inf is
 //! detected before anything is written, reported as [`OptimError::NonFinite`] (naming the group,
@@ -69,17 +69,6 @@ pub struct AdamW {
     pub v: Vec<f32>,
     /// Completed steps.
     pub t: u64,
-}
-
-/// Learning-rate factor of instant-nsr-pl's schedule: 1 for `constant_steps`, then exponential
-/// decay reaching `final_factor` (0.1) at `max_steps` (`SequentialLR` of `ConstantLR` and
-/// `ExponentialLR` with `gamma = final^(1/(max − constant))`).
-pub fn lr_factor(step: u64, constant_steps: u64, max_steps: u64, final_factor: f64) -> f64 {
-    if step <= constant_steps || max_steps <= constant_steps {
-        return 1.0;
-    }
-    let k = (step - constant_steps) as f64 / (max_steps - constant_steps) as f64;
-    final_factor.powf(k)
 }
 
 const BLOCK: usize = 1 << 15;

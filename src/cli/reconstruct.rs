@@ -1,0 +1,134 @@
+//! `neus-aug reconstruct [SCENE]`: train NeuS, extract the mesh, evaluate it.
+
+use anyhow::Context;
+use neus_aug::augment::{AugMode, Degradation};
+use neus_aug::reconstruct::{self, parse_set, Preset, RunOptions};
+use std::path::PathBuf;
+
+/// Train NeuS on a scene, extract the mesh (world mm) and score it with the DTU protocol when
+/// ground truth exists. Every flag is also a config field (see `config.toml` in a run folder);
+/// `--set key=value` reaches any other field.
+#[derive(Debug, clap::Args)]
+pub struct ReconstructArgs {
+    /// A scene folder (NeuS/IDR DTU layout), a DTU scan under --data-root (`scan24`), or a
+    /// built-in synthetic scene (`neus-aug synth --list`). Default: the embedded default scene.
+    pub scene: Option<String>,
+    /// Where real DTU scans live (config `data_root`).
+    #[arg(long, env = "NEUS_AUG_DATA")]
+    pub data_root: Option<PathBuf>,
+    /// Image augmentation (config `augment.mode`).
+    #[arg(long, value_enum)]
+    pub aug: Option<AugMode>,
+    /// Starting configuration (config `preset`); default: `default`.
+    #[arg(long, value_enum)]
+    pub preset: Option<Preset>,
+    /// Seed of everything random (config `seed`).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Keep this fraction of the training views, e.g. 0.25 (config `data.views_fraction`).
+    #[arg(long)]
+    pub views_fraction: Option<f64>,
+    /// Degrade the training images, `KIND:q` (gaussian, motion_blur, poisson, salt_pepper,
+    /// speckle; config `data.degrade`).
+    #[arg(long)]
+    pub degrade: Option<Degradation>,
+    /// Training steps (config `train.iterations`).
+    #[arg(long)]
+    pub iterations: Option<u64>,
+    /// Output folder (config `out`; default `runs/<scene>-<aug>-<preset>-s<seed>`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// A TOML configuration file (any subset of the fields of `config.toml`).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Set any config field: `--set model.render.num_samples_per_ray=256` (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// DTU ground-truth root ("SampleSet/MVS Data"; config `eval.gt_root`).
+    #[arg(long)]
+    pub gt_root: Option<PathBuf>,
+    /// DTU scan number for evaluation (config `eval.scan`).
+    #[arg(long)]
+    pub scan: Option<u32>,
+    /// Continue from the output folder's checkpoint.
+    #[arg(long)]
+    pub resume: bool,
+    /// Redo a finished run in the output folder.
+    #[arg(long)]
+    pub force: bool,
+    /// No progress output.
+    #[arg(long, short)]
+    pub quiet: bool,
+    /// Stop after this many steps with a checkpoint, as if killed (for testing --resume).
+    #[arg(long, hide = true)]
+    pub stop_after: Option<u64>,
+    /// Print the resolved configuration and exit.
+    #[arg(long)]
+    pub print_config: bool,
+}
+
+fn toml_str(s: impl ToString) -> toml::Value {
+    toml::Value::String(s.to_string())
+}
+
+pub fn run(args: ReconstructArgs) -> anyhow::Result<()> {
+    let mut sets: Vec<(String, toml::Value)> = Vec::new();
+    let mut put = |k: &str, v: toml::Value| sets.push((k.to_string(), v));
+    if let Some(s) = &args.scene {
+        put("scene", toml_str(s));
+    }
+    if let Some(d) = &args.data_root {
+        put("data_root", toml_str(d.display()));
+    }
+    if let Some(a) = args.aug {
+        put("augment.mode", toml_str(a.name()));
+    }
+    if let Some(s) = args.seed {
+        put("seed", toml::Value::Integer(s as i64));
+    }
+    if let Some(f) = args.views_fraction {
+        put("data.views_fraction", toml::Value::Float(f));
+    }
+    if let Some(d) = &args.degrade {
+        put("data.degrade", toml_str(d));
+    }
+    if let Some(i) = args.iterations {
+        put("train.iterations", toml::Value::Integer(i as i64));
+    }
+    if let Some(o) = &args.out {
+        put("out", toml_str(o.display()));
+    }
+    if let Some(g) = &args.gt_root {
+        put("eval.gt_root", toml_str(g.display()));
+    }
+    if let Some(s) = args.scan {
+        put("eval.scan", toml::Value::Integer(s as i64));
+    }
+    for s in &args.set {
+        sets.push(parse_set(s)?);
+    }
+    let cfg = reconstruct::resolve(args.preset, args.config.as_deref(), &sets)?;
+    if args.print_config {
+        print!("{}", cfg.to_toml());
+        return Ok(());
+    }
+    let metrics = reconstruct::run(
+        &cfg,
+        &RunOptions {
+            resume: args.resume,
+            force: args.force,
+            quiet: args.quiet,
+            stop_after: args.stop_after,
+        },
+    )
+    .context("reconstruct failed")?;
+    if args.quiet {
+        if let Some(c) = &metrics.chamfer {
+            println!(
+                "chamfer_sum {:.4} mm (accuracy {:.4}, completeness {:.4})",
+                c.chamfer_sum, c.mean_d2s, c.mean_s2d
+            );
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,722 @@
+//! `neus-aug reconstruct`: from a scene to a scored mesh.
+//!
+//! Phases, each timed into `metrics.json`: resolve and load the scene → prepare the training set
+//! (held-out views, views fraction, degradation, augmentation) → train (with progress and
+//! atomic checkpoints) → extract the mesh (two-pass marching cubes, mapped back to world mm
+//! through `scale_mat`) → score it with the DTU protocol when ground truth exists → render the
+//! held-out views (PSNR, SSIM).
+//!
+//! Output folder: `config.toml` (resolved configuration, written first), `checkpoint.safetensors`,
+//! `mesh.ply` (world mm, binary), `renders/`, and `metrics.json`, written last: a folder without
+//! `metrics.json` holds an unfinished run, never one that looks complete.
+
+pub mod config;
+
+pub use config::{
+    parse_set, resolve, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig, Preset,
+    RunConfig,
+};
+
+use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
+use crate::mesh::{extract_two_pass, to_world, McError, McOptions, TopologyReport, TwoPassOptions};
+use crate::render::model::{ModelError, NeusModel, RayBatch};
+use crate::scene::sim::{self, SimError};
+use crate::scene::{GrayImage, LoadOptions, RgbImage, Scene, SceneError};
+use crate::train::checkpoint::{self, CheckpointError, TrainState};
+use crate::train::data::{camera_rays, DataError};
+use crate::train::metrics::{psnr, ssim};
+use crate::train::{TrainData, TrainError, Trainer};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Why a run failed. Every variant says what to do or names the file at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum ReconstructError {
+    /// The scene name resolves to nothing.
+    #[error(
+        "scene '{name}' not found. Looked for: the folder {name}; {root}/{name} and {root}/dtu_{name} \
+         (real DTU in the NeuS layout; set --data-root or NEUS_AUG_DATA); a built-in synthetic scene \
+         (known: {known}). Real DTU: download the NeuS-preprocessed DTU scans (data_DTU.zip from \
+         Totoro97/NeuS) and unpack them under {root}/."
+    )]
+    SceneNotFound {
+        name: String,
+        root: String,
+        known: String,
+    },
+    /// `--out` is unusable or holds another run.
+    #[error("output folder {path}: {problem}")]
+    Output { path: PathBuf, problem: String },
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    #[error(transparent)]
+    Augment(#[from] AugmentError),
+    #[error(transparent)]
+    Data(#[from] DataError),
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    #[error(transparent)]
+    Train(#[from] TrainError),
+    #[error(transparent)]
+    Checkpoint(#[from] CheckpointError),
+    #[error("mesh extraction failed: {0}")]
+    Mesh(#[from] McError),
+    #[error("evaluation failed: {0}")]
+    Eval(#[from] dtu_eval::EvalError),
+    #[error(transparent)]
+    Ply(#[from] dtu_eval::ply::PlyError),
+    #[error(transparent)]
+    Image(#[from] crate::scene::ImageError),
+    #[error("cannot write {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ReconstructError + '_ {
+    move |source| ReconstructError::Io {
+        path: path.into(),
+        source,
+    }
+}
+
+/// Where a scene came from.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SceneKind {
+    /// A folder given by path.
+    Folder,
+    /// A DTU scan under the data root.
+    Dtu,
+    /// A built-in synthetic scene (generated into the cache).
+    Builtin,
+}
+
+/// A resolved scene: its folder and a short name for output folders.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ResolvedScene {
+    pub dir: PathBuf,
+    pub name: String,
+    pub kind: SceneKind,
+}
+
+/// Resolves a scene name as ../shared/DESIGN.md §2 orders it: a folder; `<data_root>/<name>` or
+/// `<data_root>/dtu_<name>`; a built-in synthetic scene (generated once into the cache). An
+/// empty name is the embedded default scene.
+pub fn resolve_scene(spec: &str, data_root: &Path, quiet: bool) -> Result<ResolvedScene, ReconstructError> {
+    let name = if spec.is_empty() { "default" } else { spec };
+    let as_path = Path::new(name);
+    let short = |p: &Path| {
+        p.file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| name.to_string())
+    };
+    if as_path.is_dir() {
+        return Ok(ResolvedScene {
+            dir: as_path.into(),
+            name: short(as_path),
+            kind: SceneKind::Folder,
+        });
+    }
+    for candidate in [data_root.join(name), data_root.join(format!("dtu_{name}"))] {
+        if candidate.is_dir() {
+            return Ok(ResolvedScene {
+                name: short(&candidate),
+                dir: candidate,
+                kind: SceneKind::Dtu,
+            });
+        }
+    }
+    match sim::builtin(name) {
+        Ok(_) => {
+            let root = sim::default_cache_root()?;
+            if !quiet {
+                eprintln!("scene '{name}': built-in synthetic scene (cache {})", root.display());
+            }
+            let dir = sim::ensure_builtin(name, &root)?;
+            Ok(ResolvedScene {
+                dir,
+                name: name.to_string(),
+                kind: SceneKind::Builtin,
+            })
+        }
+        Err(SimError::UnknownScene { known, .. }) => Err(ReconstructError::SceneNotFound {
+            name: name.into(),
+            root: data_root.display().to_string(),
+            known,
+        }),
+        Err(e) => Err(e.into()),
+    }
+}
+
+/// How to run (not part of the configuration: it does not change results).
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Continue from the output folder's checkpoint if there is one.
+    pub resume: bool,
+    /// Overwrite a finished run in the output folder.
+    pub force: bool,
+    /// No progress output.
+    pub quiet: bool,
+    /// Stop after this many completed steps (checkpoint written), as if killed: for tests of
+    /// `--resume`.
+    pub stop_after: Option<u64>,
+}
+
+/// Chamfer figures of the mesh (DTU protocol, world mm).
+#[derive(Clone, Debug, Serialize)]
+pub struct ChamferMetrics {
+    /// Accuracy: mean mesh → GT distance (DTUeval-python `mean_d2s`).
+    pub mean_d2s: f64,
+    /// Completeness: mean GT → mesh distance (`mean_s2d`).
+    pub mean_s2d: f64,
+    /// `(acc + comp) / 2`, what DTUeval-python prints as "overall".
+    pub overall: f64,
+    /// `acc + comp`, what the paper reports.
+    pub chamfer_sum: f64,
+    /// Ground-truth root and scan used.
+    pub gt_root: String,
+    pub scan: u32,
+}
+
+/// PSNR/SSIM of one held-out view.
+#[derive(Clone, Debug, Serialize)]
+pub struct ViewMetrics {
+    pub view: usize,
+    pub psnr: f64,
+    pub ssim: Option<f64>,
+}
+
+/// Seconds per phase.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Timings {
+    pub load: f64,
+    pub prepare: f64,
+    pub train: f64,
+    pub mesh: f64,
+    pub eval: f64,
+    pub render: f64,
+    pub total: f64,
+}
+
+/// Training summary.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct TrainSummary {
+    pub iterations: u64,
+    pub resumed_from: Option<u64>,
+    pub final_loss: f64,
+    pub final_train_psnr: f64,
+    pub final_inv_s: f64,
+    pub skipped_steps: u64,
+    pub rays: u64,
+    pub samples: u64,
+    pub samples_per_second: f64,
+    pub train_views: usize,
+    pub heldout_views: Vec<usize>,
+}
+
+/// Mesh summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshSummary {
+    pub vertices: usize,
+    pub faces: usize,
+    pub boundary_edges: usize,
+    pub non_manifold_edges: usize,
+    pub components: usize,
+}
+
+/// Everything `metrics.json` holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Metrics {
+    pub scene: ResolvedScene,
+    pub preset: Preset,
+    pub augment: crate::augment::AugMode,
+    pub seed: u64,
+    pub config_hash: String,
+    /// `None` when no ground truth was found (see `eval_note`).
+    pub chamfer: Option<ChamferMetrics>,
+    pub eval_note: Option<String>,
+    pub psnr_heldout: Option<f64>,
+    pub ssim_heldout: Option<f64>,
+    pub heldout: Vec<ViewMetrics>,
+    pub train: TrainSummary,
+    pub mesh: MeshSummary,
+    pub timings_s: Timings,
+    pub threads: usize,
+    pub version: String,
+}
+
+/// Writes `text` to `path` atomically.
+fn write_atomic(path: &Path, text: &str) -> Result<(), ReconstructError> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(format!(".tmp{}", std::process::id()));
+    let tmp = path.with_file_name(name);
+    std::fs::write(&tmp, text)
+        .and_then(|_| std::fs::rename(&tmp, path))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            ReconstructError::Io {
+                path: path.into(),
+                source: e,
+            }
+        })
+}
+
+/// The output folder of a run.
+pub fn output_dir(cfg: &RunConfig, scene: &ResolvedScene) -> PathBuf {
+    cfg.out.clone().unwrap_or_else(|| {
+        PathBuf::from("runs").join(format!(
+            "{}-{}-{}-s{}",
+            scene.name,
+            cfg.augment.mode.name(),
+            cfg.preset.name(),
+            cfg.seed
+        ))
+    })
+}
+
+/// Checks the output folder before any work: not a file; not a finished run (unless `force`);
+/// not an unfinished one with a checkpoint (unless `resume` or `force`).
+fn prepare_output(out: &Path, opts: &RunOptions) -> Result<(), ReconstructError> {
+    let err = |problem: &str| ReconstructError::Output {
+        path: out.into(),
+        problem: problem.into(),
+    };
+    if out.exists() && !out.is_dir() {
+        return Err(err("is a file, not a folder; choose another --out"));
+    }
+    if out.join("metrics.json").is_file() && !opts.force {
+        return Err(err(
+            "already holds a finished run (metrics.json); use --force to redo it or another --out",
+        ));
+    }
+    if out.join("checkpoint.safetensors").is_file() && !opts.resume && !opts.force {
+        return Err(err(
+            "holds the checkpoint of an unfinished run; use --resume to continue it or --force to start over",
+        ));
+    }
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    if opts.force {
+        for f in ["metrics.json", "mesh.ply"] {
+            let _ = std::fs::remove_file(out.join(f));
+        }
+        if !opts.resume {
+            let _ = std::fs::remove_file(out.join("checkpoint.safetensors"));
+        }
+    }
+    Ok(())
+}
+
+/// Finds ground truth for the scene: `eval.gt_root` (+ scan) or the scene folder itself
+/// (synthetic scenes). Returns `(root, scan)` or a note saying why there is none.
+fn find_gt(cfg: &RunConfig, scene: &ResolvedScene) -> Result<(PathBuf, u32), String> {
+    let meta_scan = std::fs::read_to_string(scene.dir.join("meta.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| v.get("scan").and_then(|s| s.as_u64()))
+        .map(|s| s as u32);
+    let name_scan = || {
+        let digits: String = scene
+            .name
+            .trim_start_matches("dtu_")
+            .trim_start_matches("scan")
+            .chars()
+            .take_while(|c| c.is_ascii_digit())
+            .collect();
+        digits.parse::<u32>().ok()
+    };
+    let scan = cfg
+        .eval
+        .scan
+        .or(meta_scan)
+        .or_else(name_scan)
+        .ok_or_else(|| format!("no scan number for scene '{}' (set eval.scan)", scene.name))?;
+    let root = cfg.eval.gt_root.clone().unwrap_or_else(|| scene.dir.clone());
+    let paths = dtu_eval::gt::GtPaths::new(&root, scan);
+    for p in [&paths.points, &paths.obs_mask, &paths.plane] {
+        if !p.is_file() {
+            return Err(format!(
+                "no ground truth: {} is missing (set eval.gt_root to DTU's 'SampleSet/MVS Data')",
+                p.display()
+            ));
+        }
+    }
+    Ok((root, scan))
+}
+
+/// A progress display: an indicatif bar on a terminal, a line every ~5 % otherwise.
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    total: u64,
+    quiet: bool,
+    start: Instant,
+    last_line: u64,
+}
+
+impl Progress {
+    fn new(total: u64, start_step: u64, quiet: bool) -> Self {
+        use std::io::IsTerminal;
+        let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+            let b = indicatif::ProgressBar::new(total);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{elapsed_precise} [{bar:28}] {pos}/{len} {msg} eta {eta}",
+                )
+                .expect("valid template")
+                .progress_chars("=> "),
+            );
+            b.set_position(start_step);
+            b
+        });
+        Self {
+            bar,
+            total,
+            quiet,
+            start: Instant::now(),
+            last_line: start_step,
+        }
+    }
+
+    fn update(&mut self, step: u64, msg: String) {
+        if let Some(b) = &self.bar {
+            b.set_position(step);
+            b.set_message(msg);
+        } else if !self.quiet && (step - self.last_line >= (self.total / 20).max(1) || step == self.total) {
+            self.last_line = step;
+            eprintln!(
+                "step {step}/{} {msg} ({:.0} s)",
+                self.total,
+                self.start.elapsed().as_secs_f64()
+            );
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
+    }
+}
+
+fn say(quiet: bool, msg: impl AsRef<str>) {
+    if !quiet {
+        eprintln!("{}", msg.as_ref());
+    }
+}
+
+/// Runs the whole pipeline. `cfg` must come from [`resolve`] (validated, appearance input set).
+pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructError> {
+    let t_total = Instant::now();
+    let mut timings = Timings::default();
+    let quiet = opts.quiet;
+
+    // Scene and output folder.
+    let t = Instant::now();
+    let scene_ref = resolve_scene(&cfg.scene, &cfg.data_root, quiet)?;
+    let out = output_dir(cfg, &scene_ref);
+    prepare_output(&out, opts)?;
+    write_atomic(&out.join("config.toml"), &cfg.to_toml())?;
+    let scene = Scene::load(
+        &scene_ref.dir,
+        &LoadOptions {
+            downscale: cfg.data.downscale,
+            masks: cfg.data.masks,
+        },
+    )?;
+    timings.load = t.elapsed().as_secs_f64();
+    say(
+        quiet,
+        format!(
+            "loaded {} views of {} ({}×{}) in {:.1} s → {}",
+            scene.views.len(),
+            scene_ref.dir.display(),
+            scene.views[0].image.width,
+            scene.views[0].image.height,
+            timings.load,
+            out.display()
+        ),
+    );
+
+    // Training set.
+    let t = Instant::now();
+    let n = scene.views.len();
+    let heldout = cfg.data.holdout.indices(n)?;
+    let candidates: Vec<usize> = (0..n).filter(|i| !heldout.contains(i)).collect();
+    let keep = views_fraction(candidates.len(), cfg.data.views_fraction, cfg.seed)?;
+    let train_idx: Vec<usize> = keep.iter().map(|&k| candidates[k]).collect();
+    let mut images: Vec<RgbImage> = train_idx.iter().map(|&i| scene.views[i].image.clone()).collect();
+    if let Some(d) = &cfg.data.degrade {
+        degrade_views(&mut images, d, cfg.seed);
+    }
+    let masks: Option<Vec<GrayImage>> = train_idx
+        .iter()
+        .map(|&i| scene.views[i].mask.clone())
+        .collect();
+    let cameras: Vec<_> = train_idx.iter().map(|&i| scene.views[i].camera.clone()).collect();
+    let sampler = AugSampler::new(images, &cfg.augment)?;
+    let data = TrainData::new(&cameras, sampler, masks, cfg.model.render.background)?;
+    let model = NeusModel::new(cfg.model.clone())?;
+    timings.prepare = t.elapsed().as_secs_f64();
+
+    // Training.
+    let t = Instant::now();
+    let hash = cfg.training_hash();
+    let ckpt_path = out.join("checkpoint.safetensors");
+    let mut trainer = Trainer::new(&model, &data, &cfg.train, cfg.seed, cfg.augment.seed ^ cfg.seed);
+    let mut state: TrainState = if opts.resume && ckpt_path.is_file() {
+        let s = checkpoint::load(&ckpt_path, &model.layout, &cfg.train.optimizer, &hash)?;
+        say(quiet, format!("resuming from step {}", s.step));
+        s
+    } else {
+        trainer.initial_state()
+    };
+    let resumed_from = (state.step > 0).then_some(state.step);
+    let config_toml = cfg.to_toml();
+    let iters = cfg.train.iterations;
+    let mut progress = Progress::new(iters, state.step, quiet);
+    let (mut rays, mut samples) = (0u64, 0u64);
+    let mut last = None;
+    let t_loop = Instant::now();
+    while state.step < iters {
+        let report = trainer.step(&mut state)?;
+        rays += report.rays as u64;
+        samples += report.out.n_samples as u64;
+        if let Some(why) = &report.skipped {
+            say(quiet, format!("step {}: {why}", report.step));
+        }
+        let secs = t_loop.elapsed().as_secs_f64().max(1e-9);
+        progress.update(
+            state.step,
+            format!(
+                "loss {:.4} psnr {:.2} inv_s {:.0} rays/s {:.0}",
+                report.out.total,
+                -10.0 * report.out.mse_all.max(1e-12).log10(),
+                report.out.inv_s,
+                rays as f64 / secs
+            ),
+        );
+        last = Some(report);
+        let every = cfg.train.checkpoint_every;
+        let stop = opts.stop_after.is_some_and(|s| state.step >= s);
+        if state.step == iters || stop || (every > 0 && state.step % every == 0) {
+            checkpoint::save(&ckpt_path, &state, &model.layout, &config_toml, &hash)?;
+        }
+        if stop {
+            progress.finish();
+            return Err(ReconstructError::Output {
+                path: out,
+                problem: format!("stopped after step {} as asked (--stop-after)", state.step),
+            });
+        }
+    }
+    progress.finish();
+    timings.train = t.elapsed().as_secs_f64();
+    let train_secs = t_loop.elapsed().as_secs_f64();
+    let train_summary = TrainSummary {
+        iterations: iters,
+        resumed_from,
+        final_loss: last.as_ref().map_or(f64::NAN, |r| r.out.total),
+        final_train_psnr: last
+            .as_ref()
+            .map_or(f64::NAN, |r| -10.0 * r.out.mse_all.max(1e-12).log10()),
+        final_inv_s: model.inv_s(&state.params) as f64,
+        skipped_steps: state.skipped_steps,
+        rays,
+        samples,
+        samples_per_second: samples as f64 / train_secs.max(1e-9),
+        train_views: train_idx.len(),
+        heldout_views: heldout.clone(),
+    };
+    say(
+        quiet,
+        format!(
+            "trained {iters} steps in {:.1} s ({:.0} samples/s), inv_s {:.0}",
+            timings.train, train_summary.samples_per_second, train_summary.final_inv_s
+        ),
+    );
+
+    // Mesh.
+    let t = Instant::now();
+    let active = model.config.inference_schedule(iters).active_levels;
+    let r = model.config.render.radius;
+    let sdf = |pts: &[[f32; 3]]| model.sdf(&state.params, pts, active);
+    let two = extract_two_pass(
+        &sdf,
+        &TwoPassOptions {
+            min: [-r; 3],
+            max: [r; 3],
+            coarse_res: cfg.mesh.coarse_res,
+            fine_res: cfg.mesh.fine_res,
+            pad_fraction: cfg.mesh.pad_fraction,
+            mc: McOptions::default(),
+        },
+    )?;
+    let mut mesh = two.mesh;
+    to_world(&mut mesh, &scene.normalization);
+    let topo = TopologyReport::of(&mesh);
+    dtu_eval::ply::write_mesh(&out.join("mesh.ply"), &mesh)?;
+    timings.mesh = t.elapsed().as_secs_f64();
+    say(
+        quiet,
+        format!(
+            "mesh: {} vertices, {} faces in {:.1} s",
+            mesh.vertices.len(),
+            mesh.faces.len(),
+            timings.mesh
+        ),
+    );
+
+    // Evaluation.
+    let t = Instant::now();
+    let (chamfer, eval_note) = if !cfg.eval.enabled {
+        (None, Some("evaluation disabled (eval.enabled = false)".to_string()))
+    } else {
+        match find_gt(cfg, &scene_ref) {
+            Err(note) => (None, Some(note)),
+            Ok((root, scan)) => {
+                let gt = dtu_eval::protocol::GroundTruth::load(&root, scan)?;
+                let params = dtu_eval::report::DtuParams::default();
+                let e = dtu_eval::protocol::evaluate_mesh(&mesh, &gt, &params, cfg.seed)?;
+                if cfg.eval.vis {
+                    dtu_eval::vis::write_error_clouds(&out, &e, &params)?;
+                }
+                (
+                    Some(ChamferMetrics {
+                        mean_d2s: e.mean_d2s,
+                        mean_s2d: e.mean_s2d,
+                        overall: e.overall(),
+                        chamfer_sum: e.chamfer_sum(),
+                        gt_root: root.display().to_string(),
+                        scan,
+                    }),
+                    None,
+                )
+            }
+        }
+    };
+    timings.eval = t.elapsed().as_secs_f64();
+    match (&chamfer, &eval_note) {
+        (Some(c), _) => say(
+            quiet,
+            format!(
+                "chamfer: accuracy {:.3} mm, completeness {:.3} mm, sum {:.3} mm (overall {:.3})",
+                c.mean_d2s, c.mean_s2d, c.chamfer_sum, c.overall
+            ),
+        ),
+        (None, Some(n)) => say(quiet, format!("no evaluation: {n}")),
+        _ => {}
+    }
+
+    // Held-out renders.
+    let t = Instant::now();
+    let renders = out.join("renders");
+    let mut heldout_metrics = Vec::new();
+    if !heldout.is_empty() {
+        std::fs::create_dir_all(&renders).map_err(io_err(&renders))?;
+    }
+    let k = cfg.data.render_downscale as usize;
+    let sched = model.config.inference_schedule(iters);
+    for &v in &heldout {
+        let view = &scene.views[v];
+        let cam = view.camera.downscaled(k as u32);
+        let (origins, dirs) = camera_rays(&cam);
+        let (w, h) = (cam.width as usize, cam.height as usize);
+        let codes = vec![0u32; origins.len()];
+        let p = vec![0f32; origins.len()];
+        let o = model.render(
+            &state.params,
+            &RayBatch {
+                origins: &origins,
+                dirs: &dirs,
+                codes: &codes,
+                p: &p,
+            },
+            sched,
+            None,
+        )?;
+        let bg = model.config.render.background;
+        let mut gt = view.image.downscaled(k);
+        if let Some(m) = view.mask.as_ref().filter(|_| cfg.data.masks) {
+            let m = m.downscaled(k);
+            for (i, mv) in m.data.iter().enumerate() {
+                for c in 0..3 {
+                    gt.data[i * 3 + c] = gt.data[i * 3 + c] * mv + bg[c] * (1.0 - mv);
+                }
+            }
+        }
+        let rgb = RgbImage {
+            width: w,
+            height: h,
+            data: o.rgb.iter().flatten().copied().collect(),
+        };
+        let normal = RgbImage {
+            width: w,
+            height: h,
+            data: o.normal.iter().flatten().map(|c| 0.5 * c + 0.5).collect(),
+        };
+        rgb.save(&renders.join(format!("view{v:03}_rgb.png")))?;
+        normal.save(&renders.join(format!("view{v:03}_normal.png")))?;
+        gt.save(&renders.join(format!("view{v:03}_gt.png")))?;
+        heldout_metrics.push(ViewMetrics {
+            view: v,
+            psnr: psnr(&rgb, &gt),
+            ssim: ssim(&rgb, &gt),
+        });
+    }
+    timings.render = t.elapsed().as_secs_f64();
+    let mean = |f: &dyn Fn(&ViewMetrics) -> Option<f64>| -> Option<f64> {
+        let v: Vec<f64> = heldout_metrics.iter().filter_map(f).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    let psnr_heldout = mean(&|m| Some(m.psnr));
+    let ssim_heldout = mean(&|m| m.ssim);
+    if let Some(p) = psnr_heldout {
+        say(
+            quiet,
+            format!(
+                "held-out views {:?}: PSNR {:.2} dB, SSIM {:.4}",
+                heldout,
+                p,
+                ssim_heldout.unwrap_or(f64::NAN)
+            ),
+        );
+    }
+    timings.total = t_total.elapsed().as_secs_f64();
+
+    let metrics = Metrics {
+        scene: scene_ref,
+        preset: cfg.preset,
+        augment: cfg.augment.mode,
+        seed: cfg.seed,
+        config_hash: hash,
+        chamfer,
+        eval_note,
+        psnr_heldout,
+        ssim_heldout,
+        heldout: heldout_metrics,
+        train: train_summary,
+        mesh: MeshSummary {
+            vertices: mesh.vertices.len(),
+            faces: mesh.faces.len(),
+            boundary_edges: topo.boundary_edges,
+            non_manifold_edges: topo.non_manifold_edges,
+            components: topo.components,
+        },
+        timings_s: timings,
+        threads: rayon::current_num_threads(),
+        version: env!("CARGO_PKG_VERSION").to_string(),
+    };
+    write_atomic(
+        &out.join("metrics.json"),
+        &serde_json::to_string_pretty(&metrics).expect("metrics serialise"),
+    )?;
+    say(quiet, format!("done in {:.1} s: {}", metrics.timings_s.total, out.join("metrics.json").display()));
+    Ok(metrics)
+}

@@ -1,0 +1,258 @@
+//! Training checkpoints in `safetensors`, loadable from Python
+//! (`safetensors.numpy.load_file`), written atomically.
+//!
+//! Tensors (all little-endian):
+//! - `params.<group>`: f32, the group's shape (`hash_grid`, `sdf_mlp`, `color_mlp`, `variance`,
+//!   `appearance`; see [`crate::field::ParamLayout`]);
+//! - `adam_m.<group>`, `adam_v.<group>`: f32, AdamW's moments, same shapes;
+//! - `occupancy.occ`: f32 `[r, r, r]`, `occupancy.binary`: u8 `[r, r, r]`.
+//!
+//! Metadata (strings): `format` = `neus-aug-checkpoint-1`, `step` (completed steps), `adam_t`,
+//! `num_rays` (the dynamic ray count), `skipped_steps`, `config_hash` (of the resolved run
+//! configuration, so a resume with another configuration is refused) and `config` (the TOML).
+
+use super::adam::AdamW;
+use crate::field::ParamLayout;
+use crate::render::occupancy::OccupancyGrid;
+use safetensors::tensor::{Dtype, TensorView};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// The format tag written into the metadata.
+pub const FORMAT: &str = "neus-aug-checkpoint-1";
+
+/// Errors of checkpoint input/output, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    /// Reading or writing failed.
+    #[error("cannot access checkpoint {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not a neus-aug checkpoint or is damaged.
+    #[error("{path} is not a valid neus-aug checkpoint: {why}")]
+    Invalid { path: PathBuf, why: String },
+    /// The checkpoint belongs to another configuration.
+    #[error(
+        "{path} was written by a run with another configuration (hash {found}, this run {expected}); \
+         use a new --out directory or the same configuration"
+    )]
+    ConfigMismatch {
+        path: PathBuf,
+        found: String,
+        expected: String,
+    },
+}
+
+/// Everything needed to continue a run exactly where it stopped.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainState {
+    /// Completed steps.
+    pub step: u64,
+    /// Flat parameters (layout of the model).
+    pub params: Vec<f32>,
+    /// Optimiser state.
+    pub adam: AdamW,
+    /// Occupancy grid.
+    pub occ: OccupancyGrid,
+    /// Dynamic ray count for the next step.
+    pub num_rays: usize,
+    /// Steps skipped by the optimiser's NaN guard so far.
+    pub skipped_steps: u64,
+}
+
+fn f32_bytes(v: &[f32]) -> Vec<u8> {
+    v.iter().flat_map(|x| x.to_le_bytes()).collect()
+}
+
+fn bytes_f32(b: &[u8]) -> Vec<f32> {
+    b.chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
+/// Writes `state` to `path` atomically (temporary sibling, fsync, rename).
+pub fn save(
+    path: &Path,
+    state: &TrainState,
+    layout: &ParamLayout,
+    config_toml: &str,
+    config_hash: &str,
+) -> Result<(), CheckpointError> {
+    let invalid = |why: String| CheckpointError::Invalid {
+        path: path.into(),
+        why,
+    };
+    let mut owned: Vec<(String, Vec<usize>, Dtype, Vec<u8>)> = Vec::new();
+    for g in &layout.groups {
+        let r = g.range();
+        for (prefix, buf) in [
+            ("params", &state.params),
+            ("adam_m", &state.adam.m),
+            ("adam_v", &state.adam.v),
+        ] {
+            owned.push((
+                format!("{prefix}.{}", g.name),
+                g.shape.clone(),
+                Dtype::F32,
+                f32_bytes(&buf[r.clone()]),
+            ));
+        }
+    }
+    let res = state.occ.resolution;
+    owned.push((
+        "occupancy.occ".into(),
+        vec![res, res, res],
+        Dtype::F32,
+        f32_bytes(&state.occ.occ),
+    ));
+    owned.push((
+        "occupancy.binary".into(),
+        vec![res, res, res],
+        Dtype::U8,
+        state.occ.binary.iter().map(|&b| b as u8).collect(),
+    ));
+    let views: Vec<(String, TensorView)> = owned
+        .iter()
+        .map(|(name, shape, dtype, bytes)| {
+            TensorView::new(*dtype, shape.clone(), bytes)
+                .map(|v| (name.clone(), v))
+                .map_err(|e| invalid(format!("tensor {name}: {e}")))
+        })
+        .collect::<Result<_, _>>()?;
+    let meta: HashMap<String, String> = [
+        ("format", FORMAT.to_string()),
+        ("step", state.step.to_string()),
+        ("adam_t", state.adam.t.to_string()),
+        ("num_rays", state.num_rays.to_string()),
+        ("skipped_steps", state.skipped_steps.to_string()),
+        ("occupancy_radius", state.occ.radius.to_string()),
+        ("config_hash", config_hash.to_string()),
+        ("config", config_toml.to_string()),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect();
+    let bytes = safetensors::serialize(views, Some(meta)).map_err(|e| invalid(e.to_string()))?;
+    let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
+    tmp_name.push(format!(".tmp{}", std::process::id()));
+    let tmp = path.with_file_name(tmp_name);
+    let io = |source| CheckpointError::Io {
+        path: path.into(),
+        source,
+    };
+    let write = || -> std::io::Result<()> {
+        use std::io::Write;
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(&bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    };
+    write().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        io(e)
+    })
+}
+
+/// Reads a checkpoint written by [`save`] for a model with `layout`, refusing one whose
+/// `config_hash` differs from `expected_hash`.
+pub fn load(
+    path: &Path,
+    layout: &ParamLayout,
+    adam_config: &super::adam::AdamWConfig,
+    expected_hash: &str,
+) -> Result<TrainState, CheckpointError> {
+    let invalid = |why: String| CheckpointError::Invalid {
+        path: path.into(),
+        why,
+    };
+    let bytes = std::fs::read(path).map_err(|source| CheckpointError::Io {
+        path: path.into(),
+        source,
+    })?;
+    let (_, header) =
+        safetensors::SafeTensors::read_metadata(&bytes).map_err(|e| invalid(e.to_string()))?;
+    let meta = header
+        .metadata()
+        .clone()
+        .ok_or_else(|| invalid("no metadata".into()))?;
+    let get = |k: &str| {
+        meta.get(k)
+            .cloned()
+            .ok_or_else(|| invalid(format!("metadata key '{k}' missing")))
+    };
+    if get("format")? != FORMAT {
+        return Err(invalid(format!("format is not {FORMAT}")));
+    }
+    let found = get("config_hash")?;
+    if found != expected_hash {
+        return Err(CheckpointError::ConfigMismatch {
+            path: path.into(),
+            found,
+            expected: expected_hash.into(),
+        });
+    }
+    let num = |k: &str| -> Result<u64, CheckpointError> {
+        get(k)?
+            .parse()
+            .map_err(|_| invalid(format!("metadata '{k}' is not a number")))
+    };
+    let st = safetensors::SafeTensors::deserialize(&bytes).map_err(|e| invalid(e.to_string()))?;
+    let tensor = |name: &str, dtype: Dtype, shape: &[usize]| -> Result<Vec<u8>, CheckpointError> {
+        let t = st
+            .tensor(name)
+            .map_err(|e| invalid(format!("tensor {name}: {e}")))?;
+        if t.dtype() != dtype || t.shape() != shape {
+            return Err(invalid(format!(
+                "tensor {name} is {:?} {:?}, expected {dtype:?} {shape:?}",
+                t.dtype(),
+                t.shape()
+            )));
+        }
+        Ok(t.data().to_vec())
+    };
+    let n = layout.total();
+    let (mut params, mut m, mut v) = (vec![0f32; n], vec![0f32; n], vec![0f32; n]);
+    for g in &layout.groups {
+        let r = g.range();
+        for (prefix, buf) in [
+            ("params", &mut params),
+            ("adam_m", &mut m),
+            ("adam_v", &mut v),
+        ] {
+            let data = tensor(&format!("{prefix}.{}", g.name), Dtype::F32, &g.shape)?;
+            buf[r.clone()].copy_from_slice(&bytes_f32(&data));
+        }
+    }
+    if params.iter().any(|x| !x.is_finite()) {
+        return Err(invalid("parameters contain NaN or infinity".into()));
+    }
+    let occ_t = st
+        .tensor("occupancy.occ")
+        .map_err(|e| invalid(format!("tensor occupancy.occ: {e}")))?;
+    let res = occ_t.shape().first().copied().unwrap_or(0);
+    let radius: f32 = get("occupancy_radius")?
+        .parse()
+        .map_err(|_| invalid("metadata 'occupancy_radius' is not a number".into()))?;
+    let mut occ = OccupancyGrid::new(res, radius);
+    occ.occ = bytes_f32(&tensor("occupancy.occ", Dtype::F32, &[res, res, res])?);
+    occ.binary = tensor("occupancy.binary", Dtype::U8, &[res, res, res])?
+        .iter()
+        .map(|&b| b != 0)
+        .collect();
+    Ok(TrainState {
+        step: num("step")?,
+        params,
+        adam: AdamW {
+            config: adam_config.clone(),
+            m,
+            v,
+            t: num("adam_t")?,
+        },
+        occ,
+        num_rays: num("num_rays")? as usize,
+        skipped_steps: num("skipped_steps")?,
+    })
+}
