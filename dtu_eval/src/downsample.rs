@@ -7,15 +7,16 @@
 //! is the greedy rule "point `i` is kept iff no kept point `j < i` lies within `r`", which is
 //! what [`radius_downsample`] computes (the shuffle here is seeded, so the result is
 //! reproducible). Distances are `f64` on the `f32` coordinates, compared as `d² <= r²`, as
-//! sklearn's kd-tree does.
+//! sklearn's kd-tree does. Neighbours are found on a uniform grid (a DTU mesh sampled at the
+//! radius has well under one neighbour per point, so a k-d tree's per-query cost is wasted).
 
-use crate::nn::{dist_sq, PointTree, TreeError};
+use crate::nn::dist_sq;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 
-/// Points examined per speculative parallel block in [`radius_downsample`].
-const BLOCK: usize = 1 << 16;
+/// Grid cells per parallel task of [`neighbour_pairs`].
+const CHUNK: usize = 4096;
 
 /// Shuffles `points` in place with a Fisher–Yates pass driven by `Pcg64Mcg::seed_from_u64(seed)`.
 /// Same seed, same order.
@@ -30,52 +31,131 @@ pub fn shuffle<T>(points: &mut [T], seed: u64) {
 /// Greedy radius downsampling of `points` (`[n][3]`, in their given order): returns the keep
 /// mask `[n]`. Point `i` is kept iff no kept point before it lies within `radius` (inclusive).
 ///
-/// Fast path: a k-d tree over all points. Points are processed in blocks of [`BLOCK`]; the radius
-/// queries of the points of a block that are not yet removed run in parallel, then a sequential
-/// pass applies the greedy rule in order using those neighbour lists (only neighbours after the
-/// point matter: earlier ones are already decided). The result equals [`radius_downsample_brute`].
-pub fn radius_downsample(points: &[[f32; 3]], radius: f64) -> Result<Vec<bool>, TreeError> {
-    radius_downsample_blocked(points, radius, BLOCK)
+/// Fast path, in two phases. (1) In parallel, every pair `i < j` with `|p_i − p_j| <= radius`
+/// is found with a uniform grid ([`neighbour_pairs`]). (2) A sequential pass in the given order
+/// applies the greedy rule: a point not yet removed is kept and removes its later neighbours
+/// (earlier neighbours need no look: a kept one would already have removed this point).
+/// Memory: 8 bytes per neighbour pair plus 16 per point. The result equals
+/// [`radius_downsample_brute`].
+pub fn radius_downsample(points: &[[f32; 3]], radius: f64) -> Vec<bool> {
+    radius_downsample_chunked(points, radius, CHUNK)
 }
 
-fn radius_downsample_blocked(
-    points: &[[f32; 3]],
-    radius: f64,
-    block: usize,
-) -> Result<Vec<bool>, TreeError> {
-    assert!(radius.is_finite() && radius >= 0.0, "radius {radius}");
-    let n = points.len();
-    let mut removed = vec![false; n];
-    if n == 0 {
-        return Ok(Vec::new());
-    }
-    let tree = PointTree::new(points)?;
-    let r2 = radius * radius;
-    let mut start = 0;
-    while start < n {
-        let end = (start + block).min(n);
-        // Speculative: neighbours (after the point) of every point not removed yet.
-        let candidates: Vec<usize> = (start..end).filter(|&i| !removed[i]).collect();
-        let lists: Vec<Vec<u32>> = candidates
-            .par_iter()
-            .with_min_len(256)
-            .map(|&i| {
-                let mut l = tree.within(&points[i], r2);
-                l.retain(|&j| j as usize > i);
-                l
-            })
-            .collect();
-        for (&i, list) in candidates.iter().zip(&lists) {
-            if removed[i] {
-                continue; // removed by an earlier point of this block
-            }
-            for &j in list {
+fn radius_downsample_chunked(points: &[[f32; 3]], radius: f64, chunk: usize) -> Vec<bool> {
+    let pairs = neighbour_pairs(points, radius, chunk);
+    let mut removed = vec![false; points.len()];
+    for run in pairs.chunk_by(|a, b| a.0 == b.0) {
+        let i = run[0].0 as usize;
+        if !removed[i] {
+            for &(_, j) in run {
                 removed[j as usize] = true;
             }
         }
-        start = end;
     }
-    Ok(removed.into_iter().map(|r| !r).collect())
+    removed.into_iter().map(|r| !r).collect()
+}
+
+/// Packed grid cell key: `cx << 42 | cy << 21 | cz`, each in `1 ..= 2²⁰ + 1` so that a cell's
+/// neighbours are the key plus a constant, without borrows between fields.
+const AXIS_BITS: u32 = 21;
+
+/// Every pair `(i, j)`, `i < j`, of points within `radius` (inclusive; `f64` distance on the
+/// `f32` coordinates, as [`dist_sq`]), sorted by `i` then `j`. `points` must be finite and
+/// fewer than 2³² (as for [`crate::nn::PointTree`]).
+///
+/// The points are binned into cubic cells of edge slightly above `radius` (or coarser when the
+/// extent needs more than 2²⁰ cells per axis), so that neighbours lie in the same or adjacent
+/// cells. Cells are sorted by key (x-major, z-minor); each cell is paired with itself, with the
+/// next cell of its column (`z + 1`), and with the three-cell column runs `(x, y + 1)`,
+/// `(x + 1, y − 1 ..= y + 1)`: the half of the 26-neighbourhood after it, so each pair of cells
+/// is visited once. Those runs are found by pointers that only move forward, since the target
+/// keys grow with the cell key. Chunks of [`CHUNK`] cells run in parallel.
+pub fn neighbour_pairs(points: &[[f32; 3]], radius: f64, chunk: usize) -> Vec<(u32, u32)> {
+    assert!(radius.is_finite() && radius >= 0.0, "radius {radius}");
+    assert!(points.len() < u32::MAX as usize, "{} points", points.len());
+    let Some((lo, hi)) = crate::mesh::bounds(points) else {
+        return Vec::new();
+    };
+    let extent = (0..3)
+        .map(|k| hi[k] as f64 - lo[k] as f64)
+        .fold(0.0, f64::max);
+    // Slightly above the radius so that rounding never puts two points within `radius` two
+    // cells apart; coarser when needed to keep indices below 2^20.
+    let cell = (radius * (1.0 + 1e-6))
+        .max(extent / (1u64 << 20) as f64)
+        .max(1e-30);
+    let mut keyed: Vec<(u64, u32)> = points
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let key = (0..3).fold(0u64, |key, k| {
+                let c = ((p[k] as f64 - lo[k] as f64) / cell).floor() as u64 + 1;
+                key << AXIS_BITS | c
+            });
+            (key, i as u32)
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    // Cells: key and start index into `keyed`; a sentinel closes the last one.
+    let mut cells: Vec<(u64, usize)> = Vec::new();
+    for (s, &(key, _)) in keyed.iter().enumerate() {
+        if cells.last().is_none_or(|&(k, _)| k != key) {
+            cells.push((key, s));
+        }
+    }
+    cells.push((u64::MAX, keyed.len()));
+    let n_cells = cells.len() - 1;
+    let members = |c: usize| &keyed[cells[c].1..cells[c + 1].1];
+    let r2 = radius * radius;
+    let step = |dx: i64, dy: i64, dz: i64| (dx << (2 * AXIS_BITS)) + (dy << AXIS_BITS) + dz;
+    let columns = [step(0, 1, 0), step(1, -1, 0), step(1, 0, 0), step(1, 1, 0)];
+    let chunk = chunk.max(1);
+    let chunks: Vec<Vec<(u32, u32)>> = (0..n_cells.div_ceil(chunk))
+        .into_par_iter()
+        .map(|t| {
+            let range = t * chunk..((t + 1) * chunk).min(n_cells);
+            let mut out = Vec::new();
+            let mut push_pairs = |a: &[(u64, u32)], b: &[(u64, u32)], same: bool| {
+                for (ia, &(_, i)) in a.iter().enumerate() {
+                    let b = if same { &b[ia + 1..] } else { b };
+                    for &(_, j) in b {
+                        if dist_sq(&points[i as usize], &points[j as usize]) <= r2 {
+                            out.push((i.min(j), i.max(j)));
+                        }
+                    }
+                }
+            };
+            let first_key = cells[range.start].0 as i64;
+            let mut ptr: [usize; 4] = std::array::from_fn(|c| {
+                let target = (first_key + columns[c] - 1) as u64;
+                cells[..n_cells].partition_point(|&(k, _)| k < target)
+            });
+            for c in range {
+                let key = cells[c].0;
+                let own = members(c);
+                push_pairs(own, own, true);
+                if cells[c + 1].0 == key + 1 {
+                    push_pairs(own, members(c + 1), false);
+                }
+                for (col, p) in columns.iter().zip(ptr.iter_mut()) {
+                    let first = (key as i64 + col - 1) as u64;
+                    let last = (key as i64 + col + 1) as u64;
+                    while cells[*p].0 < first {
+                        *p += 1;
+                    }
+                    let mut q = *p;
+                    while cells[q].0 <= last {
+                        push_pairs(own, members(q), false);
+                        q += 1;
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let mut pairs: Vec<(u32, u32)> = chunks.concat();
+    pairs.par_sort_unstable();
+    pairs
 }
 
 /// Brute-force reference for [`radius_downsample`]: `O(n · kept)`, the greedy rule verbatim.
@@ -132,15 +212,40 @@ mod tests {
     fn hand_made_chain() {
         // Points 0.15 apart on a line: 0 kept, 1 removed (0.15), 2 kept (0.30 from 0), ...
         let pts: Vec<[f32; 3]> = (0..5).map(|i| [0.15 * i as f32, 0.0, 0.0]).collect();
-        let m = radius_downsample(&pts, 0.2).unwrap();
+        let m = radius_downsample(&pts, 0.2);
         assert_eq!(m, vec![true, false, true, false, true]);
         // Exactly on the radius counts as a neighbour (inclusive).
         let pts = [[0.0, 0.0, 0.0], [0.5, 0.0, 0.0], [0.0, 0.0, 0.0]];
+        assert_eq!(radius_downsample(&pts, 0.5), vec![true, false, false]);
+        assert!(radius_downsample(&[], 0.2).is_empty());
+    }
+
+    #[test]
+    fn coarse_grid_and_zero_radius_edge_cases() {
+        let mut rng = Pcg64Mcg::seed_from_u64(seed() ^ 77);
+        // Two tight clusters 1 km apart: the grid must coarsen its cells beyond the radius.
+        let mut pts: Vec<[f32; 3]> = (0..1500)
+            .map(|i| {
+                let base = if i % 2 == 0 { 0.0 } else { 1.0e6 };
+                std::array::from_fn(|_| base + rng.random::<f32>())
+            })
+            .collect();
         assert_eq!(
-            radius_downsample(&pts, 0.5).unwrap(),
-            vec![true, false, false]
+            radius_downsample(&pts, 0.2),
+            radius_downsample_brute(&pts, 0.2)
         );
-        assert!(radius_downsample(&[], 0.2).unwrap().is_empty());
+        // Radius 0: exactly the duplicates go (f32 at 1e6 has a 1/16 step: there are many).
+        let dup = pts[..10].to_vec();
+        pts.extend(dup);
+        let m = radius_downsample(&pts, 0.0);
+        assert_eq!(m, radius_downsample_brute(&pts, 0.0));
+        let distinct: std::collections::HashSet<[u32; 3]> =
+            pts.iter().map(|p| p.map(f32::to_bits)).collect();
+        assert_eq!(m.iter().filter(|&&k| k).count(), distinct.len());
+        assert!(distinct.len() <= pts.len() - 10);
+        // Pairs come out sorted, each once.
+        let pairs = neighbour_pairs(&pts, 0.3, 7);
+        assert!(pairs.windows(2).all(|w| w[0] < w[1]) && pairs.iter().all(|p| p.0 < p.1));
     }
 
     #[test]
@@ -155,13 +260,13 @@ mod tests {
             let dup = pts[..100].to_vec();
             pts.extend(dup);
             shuffle(&mut pts, s);
-            let fast = radius_downsample(&pts, 0.2).unwrap();
+            let fast = radius_downsample(&pts, 0.2);
             let slow = radius_downsample_brute(&pts, 0.2);
             assert_eq!(fast, slow, "seed {s}, n {n}, box {box_mm}");
-            // Small blocks: the speculation crosses many block boundaries.
-            for block in [1, 97] {
-                let blocked = radius_downsample_blocked(&pts, 0.2, block).unwrap();
-                assert_eq!(blocked, slow, "seed {s}, n {n}, block {block}");
+            // Small chunks: lists cross many chunk boundaries.
+            for chunk in [1, 97] {
+                let chunked = radius_downsample_chunked(&pts, 0.2, chunk);
+                assert_eq!(chunked, slow, "seed {s}, n {n}, chunk {chunk}");
             }
             let kept = fast.iter().filter(|&&k| k).count();
             assert!(kept > 0 && kept < pts.len(), "kept {kept} of {}", pts.len());

@@ -1,5 +1,7 @@
 //! The evaluation's error type. Every variant names the file, stage or value at fault and, where
-//! the cause is usually a mistake upstream, says what to check.
+//! the cause is usually a mistake upstream, says what to check. Underlying causes are chained
+//! through `source()`, not repeated in the message: print errors with their chain
+//! ([`error_chain`], or anyhow's `{:#}`).
 
 use crate::gt::GtError;
 use crate::mesh::MeshError;
@@ -29,7 +31,7 @@ pub enum EvalError {
         missing: Vec<PathBuf>,
     },
     /// The mesh (or point cloud) is unusable.
-    #[error("{what}: {source}")]
+    #[error("{what} is not a usable mesh")]
     BadMesh {
         what: String,
         #[source]
@@ -50,7 +52,7 @@ pub enum EvalError {
         limit: u64,
     },
     /// A k-d tree could not be built over a point set.
-    #[error("{what}: {source}")]
+    #[error("cannot build a k-d tree over the {what}")]
     Tree {
         what: String,
         #[source]
@@ -91,7 +93,7 @@ pub enum EvalError {
     #[error("{0}")]
     Usage(String),
     /// An output file could not be written.
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}")]
     Io {
         path: PathBuf,
         #[source]
@@ -146,4 +148,16 @@ fn outside_box_message(
         );
     }
     m
+}
+
+/// `err` and its `source()` chain, joined with ": " (what anyhow's `{:#}` prints).
+pub fn error_chain(err: &dyn std::error::Error) -> String {
+    let mut s = err.to_string();
+    let mut cur = err.source();
+    while let Some(e) = cur {
+        s.push_str(": ");
+        s.push_str(&e.to_string());
+        cur = e.source();
+    }
+    s
 }

@@ -2,6 +2,7 @@
 //! The same arguments serve `neus-aug eval` (see `dtu_eval::cli`).
 
 use clap::Parser;
+use std::process::ExitCode;
 
 /// Chamfer evaluation: DTU protocol (accuracy, completeness, their mean and sum) or plain mode.
 #[derive(Debug, Parser)]
@@ -11,9 +12,16 @@ struct Cli {
     args: dtu_eval::cli::EvalArgs,
 }
 
-fn main() -> anyhow::Result<()> {
+fn main() -> ExitCode {
     let cli = Cli::parse();
-    let report = dtu_eval::cli::run(&cli.args)?;
-    print!("{}", report.summary());
-    Ok(())
+    match dtu_eval::cli::run(&cli.args).map_err(anyhow::Error::from) {
+        Ok(report) => {
+            print!("{}", report.summary());
+            ExitCode::SUCCESS
+        }
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
 }

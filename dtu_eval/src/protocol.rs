@@ -80,7 +80,7 @@ pub fn check_params(p: &DtuParams) -> Result<(), EvalError> {
             why: "must be finite and >= 0 (mm)",
         });
     }
-    if !(p.max_dist > 0.0) {
+    if p.max_dist.is_nan() || p.max_dist <= 0.0 {
         return Err(EvalError::BadParam {
             name: "max_dist",
             value: p.max_dist,
@@ -273,7 +273,7 @@ pub fn evaluate_samples(
         let what = what.to_string();
         move |source| EvalError::Tree { what, source }
     };
-    let keep = radius_downsample(samples, params.density).map_err(tree_err("mesh samples"))?;
+    let keep = radius_downsample(samples, params.density);
     let data_down = select(samples, &keep);
     sw.lap("downsample");
 

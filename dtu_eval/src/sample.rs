@@ -31,7 +31,9 @@ fn grid_size(q0: [f64; 3], q1: [f64; 3], q2: [f64; 3], density: f64) -> Option<(
     let l1 = norm(v1);
     let l2 = norm(v2);
     let a2 = norm(cross(v1, v2));
-    if !(a2 > 0.0) {
+    // Skips A2 = 0 (and NaN, which the mesh validation excludes anyway): the reference's
+    // `area2 > 0` filter.
+    if a2.is_nan() || a2 <= 0.0 {
         return None;
     }
     let thr = density * (l1 * l2 / a2).sqrt();
@@ -57,7 +59,7 @@ fn sample_triangle(q: [[f32; 3]; 3], density: f64, out: &mut Vec<[f32; 3]>) {
         }
         for c2 in 0..=m2 {
             let k2 = (c2 as f64 + 0.5) / n2;
-            if !(k1 + k2 < 1.0) {
+            if k1 + k2 >= 1.0 {
                 // k1 + k2 grows with c2 (non-decreasing in floating point as well).
                 break;
             }
@@ -160,7 +162,7 @@ mod tests {
             let v1 = sub(q1, q0);
             let v2 = sub(q2, q0);
             let (l1, l2, a2) = (norm(v1), norm(v2), norm(cross(v1, v2)));
-            if !(a2 > 0.0) {
+            if a2.is_nan() || a2 <= 0.0 {
                 continue;
             }
             let thr = density * (l1 * l2 / a2).sqrt();

@@ -5,6 +5,7 @@ mod common;
 
 use common::*;
 use dtu_eval::cli::{run, EvalArgs};
+use dtu_eval::error::error_chain;
 use dtu_eval::nn::nearest_distances_brute;
 use dtu_eval::protocol::{evaluate_mesh, GroundTruth};
 use dtu_eval::report::{Details, DtuParams, Report};
@@ -12,6 +13,17 @@ use dtu_eval::{EvalError, TriMesh};
 use std::path::{Path, PathBuf};
 
 const SCAN: u32 = 7;
+
+/// The error of a failed evaluation with its whole `source()` chain.
+trait ErrText {
+    fn err_text(self) -> String;
+}
+
+impl<T: std::fmt::Debug> ErrText for Result<T, EvalError> {
+    fn err_text(self) -> String {
+        error_chain(&self.expect_err("expected an error"))
+    }
+}
 
 fn args(mesh: &Path) -> EvalArgs {
     EvalArgs {
@@ -212,7 +224,7 @@ fn dtu_error(mesh: &TriMesh) -> String {
     let dir = tempfile::tempdir().unwrap();
     write_gt(dir.path(), SCAN, 5000);
     let p = write_mesh(dir.path(), "bad.ply", mesh);
-    run(&dtu_args(&p, dir.path())).unwrap_err().to_string()
+    run(&dtu_args(&p, dir.path())).err_text()
 }
 
 #[test]
@@ -255,7 +267,7 @@ fn missing_ground_truth_files_are_all_named() {
     std::fs::remove_file(&paths.points).unwrap();
     std::fs::remove_file(&paths.plane).unwrap();
     let mesh = write_mesh(dir.path(), "m.ply", &test_mesh(0.5, 8, 16));
-    let e = run(&dtu_args(&mesh, dir.path())).unwrap_err().to_string();
+    let e = run(&dtu_args(&mesh, dir.path())).err_text();
     assert!(
         e.contains("stl007_total.ply") && e.contains("Plane7.mat"),
         "{e}"
@@ -265,9 +277,7 @@ fn missing_ground_truth_files_are_all_named() {
         "{e}"
     );
     // A wrong root entirely.
-    let e = run(&dtu_args(&mesh, &dir.path().join("nowhere")))
-        .unwrap_err()
-        .to_string();
+    let e = run(&dtu_args(&mesh, &dir.path().join("nowhere"))).err_text();
     assert!(
         e.contains("nowhere") && e.contains("ObsMask7_10.mat"),
         "{e}"
@@ -309,8 +319,7 @@ fn sets_farther_apart_than_max_dist_are_an_error_not_nan() {
         max_dist: Some(20.0),
         ..args(&pa)
     })
-    .unwrap_err()
-    .to_string();
+    .err_text();
     assert!(
         e.contains("max_dist = 20") && e.contains("smallest 50.000"),
         "{e}"
@@ -326,24 +335,21 @@ fn bad_parameters_and_argument_mixes_are_errors() {
         density: 0.0,
         ..dtu_args(&mesh, dir.path())
     })
-    .unwrap_err()
-    .to_string();
+    .err_text();
     assert!(e.contains("density = 0"), "{e}");
     let e = run(&EvalArgs {
         max_dist: Some(f64::NAN),
         ..dtu_args(&mesh, dir.path())
     })
-    .unwrap_err()
-    .to_string();
+    .err_text();
     assert!(e.contains("max_dist"), "{e}");
     let e = run(&EvalArgs {
         reference: Some(mesh.clone()),
         ..dtu_args(&mesh, dir.path())
     })
-    .unwrap_err()
-    .to_string();
+    .err_text();
     assert!(e.contains("--ref"), "{e}");
-    let e = run(&args(&mesh)).unwrap_err().to_string();
+    let e = run(&args(&mesh)).err_text();
     assert!(e.contains("--scan"), "{e}");
     // A mesh scaled to metres-as-micrometres would explode the sample count.
     let mut huge = test_mesh(0.5, 8, 16);
@@ -353,8 +359,7 @@ fn bad_parameters_and_argument_mixes_are_errors() {
         max_samples: 1_000_000,
         ..dtu_args(&p, dir.path())
     })
-    .unwrap_err()
-    .to_string();
+    .err_text();
     assert!(e.contains("wrong unit"), "{e}");
 }
 

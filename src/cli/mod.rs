@@ -1,5 +1,7 @@
 //! Sub-commands of `neus-aug`. Each lives in its own file; this file only lists them.
 
+mod eval;
+
 use clap::{Parser, Subcommand};
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
@@ -14,6 +16,8 @@ pub struct Cli {
 pub enum Command {
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect { scene: std::path::PathBuf },
+    /// Chamfer evaluation: DTU protocol (--scan N --gt-root DIR) or two sets (--ref PLY).
+    Eval(dtu_eval::cli::EvalArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -22,5 +26,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             "inspect {}: scene loading lands with the foundation issue",
             scene.display()
         ),
+        Command::Eval(args) => eval::run(&args),
     }
 }
