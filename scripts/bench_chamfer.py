@@ -86,7 +86,7 @@ def main():
               f"ratio {best / args.rust_seconds:.1f}x (CPU time {best_cpu:.2f} s vs {args.rust_cpu:.2f} s: "
               f"{best_cpu / args.rust_cpu:.1f}x); max rel diff vs Rust {err:.1e} "
               f"[{'same numbers' if ok else 'DIFFERENT'}]")
-        print(f"    means: A->B {d_ab.mean():.9f} mm, B->A {d_ba.mean():.9f} mm")
+        print(f"    means: A->B {d_ab.mean():.9f}, B->A {d_ba.mean():.9f}")
     sys.exit(1 if bad else 0)
 
 
