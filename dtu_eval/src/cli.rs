@@ -19,7 +19,8 @@ use std::path::{Path, PathBuf};
 #[derive(Clone, Debug, clap::Args)]
 pub struct EvalArgs {
     /// Mesh (or point cloud) to evaluate, PLY. DTU mode: world coordinates in mm (a NeuS mesh
-    /// must first be mapped out of its normalised space with scale_mat).
+    /// must first be mapped out of its normalised space with scale_mat). A PLY without faces is
+    /// used as a point cloud (DTUeval-python's `--mode pcd`).
     #[arg(long, value_name = "PLY")]
     pub mesh: PathBuf,
     /// DTU scan number (DTU mode, with --gt-root).
