@@ -1,5 +1,27 @@
-//! `dtu-eval`: the Chamfer evaluation command line.
+//! `dtu-eval`: the Chamfer evaluation command line (DTU protocol or plain two-set mode).
+//! The same arguments serve `neus-aug eval` (see `dtu_eval::cli`).
 
-fn main() {
-    println!("dtu-eval {}", env!("CARGO_PKG_VERSION"));
+use clap::Parser;
+use std::process::ExitCode;
+
+/// Chamfer evaluation: DTU protocol (accuracy, completeness, their mean and sum) or plain mode.
+#[derive(Debug, Parser)]
+#[command(name = "dtu-eval", version, about)]
+struct Cli {
+    #[command(flatten)]
+    args: dtu_eval::cli::EvalArgs,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match dtu_eval::cli::run(&cli.args).map_err(anyhow::Error::from) {
+        Ok(report) => {
+            print!("{}", report.summary());
+            ExitCode::SUCCESS
+        }
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
 }

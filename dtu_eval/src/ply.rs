@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 #[derive(Debug, thiserror::Error)]
 pub enum PlyError {
     /// The file could not be opened, read or written.
-    #[error("cannot access {path}: {source}")]
+    #[error("cannot access {path}")]
     Io {
         path: PathBuf,
         #[source]
@@ -38,7 +38,7 @@ pub enum PlyError {
     #[error("{path}: face {face} is not a polygon with valid indices")]
     BadFace { path: PathBuf, face: usize },
     /// The mesh read is inconsistent (NaN vertex, index past the vertices).
-    #[error("{path}: {source}")]
+    #[error("{path} holds an invalid mesh")]
     Invalid {
         path: PathBuf,
         #[source]

@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 mod augment;
+mod eval;
 mod inspect;
 mod mcubes;
 mod reconstruct;
@@ -19,6 +20,8 @@ pub struct Cli {
 pub enum Command {
     /// Train NeuS on a scene, extract the mesh and score it (default: the embedded scene).
     Reconstruct(Box<reconstruct::ReconstructArgs>),
+    /// Chamfer evaluation: DTU protocol (--scan N --gt-root DIR) or two sets (--ref PLY).
+    Eval(dtu_eval::cli::EvalArgs),
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect(inspect::InspectArgs),
     /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
@@ -32,6 +35,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Reconstruct(args) => reconstruct::run(*args),
+        Command::Eval(args) => eval::run(&args),
         Command::Inspect(args) => inspect::run(args),
         Command::Augment(args) => augment::run(args),
         Command::Mcubes(args) => mcubes::run(args),
