@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 
 mod inspect;
+mod synth;
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
 #[derive(Debug, Parser)]
@@ -16,10 +17,13 @@ pub struct Cli {
 pub enum Command {
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect(inspect::InspectArgs),
+    /// Render a synthetic scene into the DTU layout with its ground truth.
+    Synth(synth::SynthArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Inspect(args) => inspect::run(args),
+        Command::Synth(args) => synth::run(args),
     }
 }
