@@ -1,7 +1,12 @@
 //! neus-aug: NeuS surface reconstruction on the CPU with colour-only image augmentations.
 //!
 //! Modules in data-flow order (../shared/DESIGN.md §1): [`scene`] (DTU-layout I/O, cameras, rays,
-//! the simulator) → `augment` → `field` → `render` → `train` → `mesh` → evaluation (the
+//! the simulator) → [`augment`] → [`field`] → [`render`] → [`train`] → [`mesh`] → evaluation (the
 //! `dtu_eval` crate). Nothing low in the stack knows about what sits above it.
 
+pub mod augment;
+pub mod field;
+pub mod mesh;
+pub mod render;
 pub mod scene;
+pub mod train;

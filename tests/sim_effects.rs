@@ -245,3 +245,46 @@ fn one_effect_never_shifts_another_effects_random_draws() {
     let s7 = SimScene::prepare(&seeded).unwrap();
     assert_ne!(s7.view_gain(0, &mut c), sa.view_gain(0, &mut c));
 }
+
+#[test]
+fn degrade() {
+    // An empty list is the switched-off form of this effect.
+    let mut off = base();
+    off.effects.degrade = Vec::new();
+    for spec in [
+        "gaussian:0.1",
+        "motion-blur:5",
+        "poisson:10",
+        "salt-pepper:0.05",
+        "speckle:0.4",
+    ] {
+        let mut on = base();
+        on.effects.degrade = vec![spec.to_string()];
+        check(Case {
+            name: "degrade",
+            without: base(),
+            off: vec![off.clone()],
+            on,
+            work: |c| c.degrade_calls,
+            min_changed: 200,
+        });
+    }
+    // Two degradations run in order, one call each per view.
+    let mut two = base();
+    two.effects.degrade = vec!["motion-blur:2.5".into(), "gaussian:0.05".into()];
+    let (_, c) = render_all(&two);
+    assert_eq!(c.degrade_calls, 2 * 3);
+}
+
+#[test]
+fn degradations_are_seeded_per_scene() {
+    let mut a = base();
+    a.effects.degrade = vec!["gaussian:0.1".into()];
+    let mut b = a.clone();
+    b.seed = 9;
+    let (ra, _) = render_all(&a);
+    let (ra2, _) = render_all(&a);
+    let (rb, _) = render_all(&b);
+    assert!(bit_identical(&ra, &ra2));
+    assert!(differing_values(&ra, &rb) > 1000);
+}

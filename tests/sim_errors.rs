@@ -44,6 +44,15 @@ fn unknown_effects_and_keys_are_named() {
         "{BLOB}[effects]\ntexture = {{ pattern = \"stripes\" }}\n"
     ));
     assert!(e.contains("stripes") && e.contains("multiscale"), "{e}");
+    let e = err(&format!(
+        "{BLOB}[effects]\ndegrade = [\"gaussian:0.1\", \"blur:3\"]\n"
+    ));
+    assert!(
+        e.contains("effects.degrade[1]") && e.contains("blur:3"),
+        "{e}"
+    );
+    let e = err(&format!("{BLOB}[effects]\ndegrade = [\"gaussian:-1\"]\n"));
+    assert!(e.contains("effects.degrade[0]"), "{e}");
 }
 
 #[test]

@@ -1,8 +1,11 @@
 //! Sub-commands of `neus-aug`. Each lives in its own file; this file only lists them.
 
+mod augment;
+
 use clap::{Parser, Subcommand};
 
 mod inspect;
+mod mcubes;
 mod synth;
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
@@ -19,11 +22,19 @@ pub enum Command {
     Inspect(inspect::InspectArgs),
     /// Render a synthetic scene into the DTU layout with its ground truth.
     Synth(synth::SynthArgs),
+    /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
+    /// applied to one image (--apply KIND:v IN.png OUT.png).
+    Augment(augment::AugmentArgs),
+    /// Marching cubes on an analytic SDF (cross-check hook for scripts/crosscheck_mcubes.py).
+    #[command(hide = true)]
+    Mcubes(mcubes::McubesArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Inspect(args) => inspect::run(args),
         Command::Synth(args) => synth::run(args),
+        Command::Augment(args) => augment::run(args),
+        Command::Mcubes(args) => mcubes::run(args),
     }
 }

@@ -38,6 +38,10 @@ pub struct SynthArgs {
     /// Ground-truth point spacing in mm (default from the scene: 0.2).
     #[arg(long)]
     pub gt_spacing: Option<f64>,
+    /// Add a degradation KIND:q (gaussian, motion-blur, poisson, salt-pepper, speckle) after the
+    /// scene's own; repeatable, applied in order.
+    #[arg(long = "degrade", value_name = "KIND:q")]
+    pub degrade: Vec<String>,
     /// DTU scan number used in the ground-truth file names.
     #[arg(long)]
     pub scan: Option<u32>,
@@ -107,6 +111,7 @@ fn describe(args: &SynthArgs) -> anyhow::Result<SceneDescription> {
     if let Some(s) = args.scan {
         desc.scan = s;
     }
+    desc.effects.degrade.extend(args.degrade.iter().cloned());
     desc.validate()?;
     Ok(desc)
 }

@@ -1,33 +1,40 @@
-//! The `degrade` effect: image degradations `KIND:q` (../shared/DESIGN.md §6), applied to each
-//! rendered view after exposure and clipping.
+//! The `degrade` effect: image degradations `KIND:q` (../shared/DESIGN.md §6, implemented in
+//! [`crate::augment::Degradation`]), applied to each rendered view after exposure and clipping,
+//! in the listed order, each with its own random stream per view
+//! ([`super::render`]: seeded by scene seed, view and position in the list).
 
 use super::SimError;
-use crate::scene::RgbImage;
-use rand::Rng;
+pub use crate::augment::Degradation;
 
-/// A parsed degradation. The degradations themselves live in `neus_aug::augment`, which is not
-/// part of this build yet: until it is, every `KIND:q` is refused with a clear error, so no
-/// scene silently renders without the degradations it asked for.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Degradation {}
-
-impl Degradation {
-    /// The degraded image.
-    pub fn apply<R: Rng + ?Sized>(&self, _img: &RgbImage, _rng: &mut R) -> RgbImage {
-        match *self {}
-    }
+/// Parses every `KIND:q` of `effects.degrade`, naming the entry at fault.
+pub fn parse_all(list: &[String]) -> Result<Vec<Degradation>, SimError> {
+    list.iter()
+        .enumerate()
+        .map(|(i, spec)| {
+            spec.parse::<Degradation>().map_err(|e| SimError::Invalid {
+                key: format!("effects.degrade[{i}]"),
+                problem: format!("'{spec}': {e}"),
+            })
+        })
+        .collect()
 }
 
-/// Parses every `KIND:q` of `effects.degrade`, naming the one at fault.
-pub fn parse_all(list: &[String]) -> Result<Vec<Degradation>, SimError> {
-    match list.first() {
-        None => Ok(Vec::new()),
-        Some(first) => Err(SimError::Invalid {
-            key: "effects.degrade".into(),
-            problem: format!(
-                "'{first}': degradations need the neus_aug::augment module, which this build \
-                 does not include yet"
-            ),
-        }),
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn specs_parse_and_bad_ones_are_named() {
+        let ok = parse_all(&["gaussian:0.1".into(), "motion-blur:5".into()]).unwrap();
+        assert_eq!(ok.len(), 2);
+        assert_eq!(ok[1].to_string(), "motion-blur:5");
+        let err = parse_all(&["speckle:0.2".into(), "blur:3".into()])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("effects.degrade[1]") && err.contains("blur:3"),
+            "{err}"
+        );
+        assert!(parse_all(&[]).unwrap().is_empty());
     }
 }

@@ -1,0 +1,323 @@
+//! AdamW (Loshchilov & Hutter 2019) exactly as PyTorch's `torch.optim.AdamW`, which instant-nsr-pl
+//! uses (`configs/neus-dtu-wmask.yaml`: lr 0.01, betas (0.9, 0.99), eps 1e-15, and PyTorch's
+//! default weight decay 0.01 applied to every group):
+//!
+//! `p ← p·(1 − lr·wd)`, `m ← β1·m + (1−β1)·g`, `v ← β2·v + (1−β2)·g²`,
+//! `p ← p − (lr / (1−β1^t)) · m / (√v / √(1−β2^t) + eps)`.
+//!
+//! Each parameter group's learning rate is `lr · lr_scale(group) · factor`, where `factor` comes
+//! from the schedule and is passed explicitly ([`lr_factor`]).
+//!
+//! NaN guard: a step whose gradients or resulting parameters would contain NaN or ±inf is
+//! detected before anything is written, reported as [`OptimError::NonFinite`] (naming the group,
+//! the first bad index and the count) and skipped: parameters, moments and the step counter stay
+//! as they were.
+
+use crate::field::ParamLayout;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Optimiser hyper-parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AdamWConfig {
+    /// Base learning rate (1e-2).
+    pub lr: f32,
+    pub beta1: f32,
+    pub beta2: f32,
+    pub eps: f32,
+    /// Decoupled weight decay (0.01, PyTorch's AdamW default).
+    pub weight_decay: f32,
+}
+
+impl Default for AdamWConfig {
+    fn default() -> Self {
+        Self {
+            lr: 1e-2,
+            beta1: 0.9,
+            beta2: 0.99,
+            eps: 1e-15,
+            weight_decay: 0.01,
+        }
+    }
+}
+
+/// Errors of an optimiser step.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum OptimError {
+    #[error("optimiser step skipped: {count} non-finite {what} in group `{group}` (first at flat index {index})")]
+    NonFinite {
+        /// `gradient` or `updated parameter`.
+        what: &'static str,
+        group: String,
+        index: usize,
+        count: usize,
+    },
+    #[error("optimiser: buffer lengths differ (params {params}, grads {grads}, layout {layout})")]
+    Length {
+        params: usize,
+        grads: usize,
+        layout: usize,
+    },
+}
+
+/// AdamW state: first and second moments, step counter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdamW {
+    pub config: AdamWConfig,
+    pub m: Vec<f32>,
+    pub v: Vec<f32>,
+    /// Completed steps.
+    pub t: u64,
+}
+
+/// Learning-rate factor of instant-nsr-pl's schedule: 1 for `constant_steps`, then exponential
+/// decay reaching `final_factor` (0.1) at `max_steps` (`SequentialLR` of `ConstantLR` and
+/// `ExponentialLR` with `gamma = final^(1/(max − constant))`).
+pub fn lr_factor(step: u64, constant_steps: u64, max_steps: u64, final_factor: f64) -> f64 {
+    if step <= constant_steps || max_steps <= constant_steps {
+        return 1.0;
+    }
+    let k = (step - constant_steps) as f64 / (max_steps - constant_steps) as f64;
+    final_factor.powf(k)
+}
+
+const BLOCK: usize = 1 << 15;
+
+impl AdamW {
+    pub fn new(config: AdamWConfig, n: usize) -> Self {
+        Self {
+            config,
+            m: vec![0.0; n],
+            v: vec![0.0; n],
+            t: 0,
+        }
+    }
+
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn update(
+        p: f32,
+        g: f32,
+        m: f32,
+        v: f32,
+        lr: f32,
+        c: &AdamWConfig,
+        bc1: f32,
+        sbc2: f32,
+    ) -> (f32, f32, f32) {
+        let p = p * (1.0 - lr * c.weight_decay);
+        let m = c.beta1 * m + (1.0 - c.beta1) * g;
+        let v = c.beta2 * v + (1.0 - c.beta2) * g * g;
+        let denom = v.sqrt() / sbc2 + c.eps;
+        (p - (lr / bc1) * m / denom, m, v)
+    }
+
+    /// One step with learning-rate factor `factor` (from the schedule). On error nothing changes.
+    pub fn step(
+        &mut self,
+        params: &mut [f32],
+        grads: &[f32],
+        layout: &ParamLayout,
+        factor: f32,
+    ) -> Result<(), OptimError> {
+        let n = params.len();
+        if grads.len() != n || self.m.len() != n || layout.total() != n {
+            return Err(OptimError::Length {
+                params: n,
+                grads: grads.len(),
+                layout: layout.total(),
+            });
+        }
+        let c = self.config.clone();
+        let t = self.t + 1;
+        let bc1 = 1.0 - c.beta1.powi(t.min(i32::MAX as u64) as i32);
+        let sbc2 = (1.0 - c.beta2.powi(t.min(i32::MAX as u64) as i32)).sqrt();
+        // Pass 1: check, write nothing.
+        for grp in &layout.groups {
+            let r = grp.range();
+            let lr = c.lr * grp.lr_scale * factor;
+            let bad_g = first_bad(&grads[r.clone()], |i, &g| {
+                let _ = i;
+                !g.is_finite()
+            });
+            if let Some((index, count)) = bad_g {
+                return Err(OptimError::NonFinite {
+                    what: "gradient",
+                    group: grp.name.clone(),
+                    index: r.start + index,
+                    count,
+                });
+            }
+            let (pp, gg, mm, vv) = (
+                &params[r.clone()],
+                &grads[r.clone()],
+                &self.m[r.clone()],
+                &self.v[r.clone()],
+            );
+            let bad_p = first_bad(pp, |i, &p| {
+                let (np, nm, nv) = Self::update(p, gg[i], mm[i], vv[i], lr, &c, bc1, sbc2);
+                !(np.is_finite() && nm.is_finite() && nv.is_finite())
+            });
+            if let Some((index, count)) = bad_p {
+                return Err(OptimError::NonFinite {
+                    what: "updated parameter",
+                    group: grp.name.clone(),
+                    index: r.start + index,
+                    count,
+                });
+            }
+        }
+        // Pass 2: write.
+        for grp in &layout.groups {
+            let r = grp.range();
+            let lr = c.lr * grp.lr_scale * factor;
+            params[r.clone()]
+                .par_chunks_mut(BLOCK)
+                .zip(grads[r.clone()].par_chunks(BLOCK))
+                .zip(self.m[r.clone()].par_chunks_mut(BLOCK))
+                .zip(self.v[r.clone()].par_chunks_mut(BLOCK))
+                .for_each(|(((p, g), m), v)| {
+                    for i in 0..p.len() {
+                        let (np, nm, nv) = Self::update(p[i], g[i], m[i], v[i], lr, &c, bc1, sbc2);
+                        p[i] = np;
+                        m[i] = nm;
+                        v[i] = nv;
+                    }
+                });
+        }
+        self.t = t;
+        Ok(())
+    }
+}
+
+/// First index where `bad` holds and how many do, checked in parallel blocks.
+fn first_bad<F: Fn(usize, &f32) -> bool + Sync>(xs: &[f32], bad: F) -> Option<(usize, usize)> {
+    let per_block: Vec<(Option<usize>, usize)> = xs
+        .par_chunks(BLOCK)
+        .enumerate()
+        .map(|(b, blk)| {
+            let mut first = None;
+            let mut count = 0;
+            for (j, x) in blk.iter().enumerate() {
+                if bad(b * BLOCK + j, x) {
+                    first.get_or_insert(b * BLOCK + j);
+                    count += 1;
+                }
+            }
+            (first, count)
+        })
+        .collect();
+    let count: usize = per_block.iter().map(|b| b.1).sum();
+    per_block.iter().find_map(|b| b.0).map(|f| (f, count))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layout(n: usize) -> ParamLayout {
+        let mut l = ParamLayout::default();
+        l.push("a", vec![n - 1], 1.0);
+        l.push("variance", vec![1], 0.1);
+        l
+    }
+
+    /// Matches a straightforward scalar transcription of PyTorch's AdamW over several steps.
+    #[test]
+    fn matches_reference_formula() {
+        let l = layout(3);
+        let mut p = vec![0.5f32, -0.25, 0.3];
+        let mut opt = AdamW::new(AdamWConfig::default(), 3);
+        let mut rp = [0.5f64, -0.25, 0.3];
+        let (mut rm, mut rv) = ([0f64; 3], [0f64; 3]);
+        for t in 1..=5 {
+            let g: Vec<f32> = (0..3)
+                .map(|i| 0.1 * (i as f32 + 1.0) * (t as f32).sin())
+                .collect();
+            opt.step(&mut p, &g, &l, 0.5).unwrap();
+            for i in 0..3 {
+                let lr = 0.01 * 0.5 * if i == 2 { 0.1 } else { 1.0 };
+                rp[i] *= 1.0 - lr * 0.01;
+                rm[i] = 0.9 * rm[i] + 0.1 * g[i] as f64;
+                rv[i] = 0.99 * rv[i] + 0.01 * (g[i] as f64).powi(2);
+                let bc1 = 1.0 - 0.9f64.powi(t);
+                let bc2 = 1.0 - 0.99f64.powi(t);
+                rp[i] -= lr / bc1 * rm[i] / (rv[i].sqrt() / bc2.sqrt() + 1e-15);
+            }
+        }
+        for i in 0..3 {
+            assert!(
+                (p[i] as f64 - rp[i]).abs() < 1e-6,
+                "param {i}: {} vs {}",
+                p[i],
+                rp[i]
+            );
+        }
+        assert_eq!(opt.t, 5);
+    }
+
+    /// A NaN gradient or a step so large the parameters overflow is detected, reported with the
+    /// group, and skipped without touching any state.
+    #[test]
+    fn non_finite_steps_are_skipped() {
+        let l = layout(4);
+        let mut p = vec![1.0f32, 2.0, 3.0, 0.3];
+        let mut opt = AdamW::new(AdamWConfig::default(), 4);
+        opt.step(&mut p, &[0.1, 0.1, 0.1, 0.1], &l, 1.0).unwrap();
+        let (p0, m0, v0) = (p.clone(), opt.m.clone(), opt.v.clone());
+        let err = opt
+            .step(&mut p, &[0.1, f32::NAN, 0.1, 0.1], &l, 1.0)
+            .unwrap_err();
+        assert_eq!(
+            err,
+            OptimError::NonFinite {
+                what: "gradient",
+                group: "a".into(),
+                index: 1,
+                count: 1
+            }
+        );
+        // Huge learning step (an infinite schedule factor) and an exploding gradient whose
+        // square overflows the second moment.
+        let err = opt
+            .step(&mut p, &[0.1, 0.1, 0.1, 1.0], &l, f32::INFINITY)
+            .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                OptimError::NonFinite {
+                    what: "updated parameter",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        let err = opt
+            .step(&mut p, &[0.1, 0.1, 1e30, 1.0], &l, 1.0)
+            .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                OptimError::NonFinite {
+                    what: "updated parameter",
+                    index: 2,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert_eq!(
+            (p.clone(), opt.m.clone(), opt.v.clone(), opt.t),
+            (p0, m0, v0, 1)
+        );
+        assert!(p.iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn schedule_factor() {
+        assert_eq!(lr_factor(100, 5000, 20000, 0.1), 1.0);
+        assert!((lr_factor(20000, 5000, 20000, 0.1) - 0.1).abs() < 1e-12);
+        assert!((lr_factor(12500, 5000, 20000, 0.1) - 0.1f64.sqrt()).abs() < 1e-12);
+    }
+}
