@@ -25,6 +25,30 @@ fn a_minimal_description_parses() {
 }
 
 #[test]
+fn printed_descriptions_parse_back() {
+    let out = Command::new(env!("CARGO_BIN_EXE_neus-aug"))
+        .args([
+            "synth",
+            "blocks",
+            "--print-toml",
+            "--views",
+            "7",
+            "--degrade",
+            "poisson:10",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let d = parse(&text).unwrap();
+    let mut expected = neus_aug::scene::sim::builtin("blocks").unwrap();
+    expected.rig.views = 7;
+    expected.effects.degrade = vec!["poisson:10".into()];
+    assert_eq!(d, expected);
+    assert!(text.contains("[effects.ground_plane]"), "{text}");
+}
+
+#[test]
 fn unknown_effects_and_keys_are_named() {
     let e = err(&format!("{BLOB}[effects]\nshadow = {{}}\n"));
     assert!(

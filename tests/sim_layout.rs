@@ -115,6 +115,7 @@ fn the_same_description_gives_the_same_bytes_in_any_thread_count() {
     desc.effects.light_jitter = Some(Default::default());
     desc.effects.shadows = Some(Default::default());
     desc.effects.ground_plane = Some(Default::default());
+    desc.effects.degrade = vec!["speckle:0.2".into(), "salt-pepper:0.01".into()];
     let (a, b) = (dir.path().join("a"), dir.path().join("b"));
     sim::generate(&desc, &a, &GenerateOptions::default()).unwrap();
     let one = rayon::ThreadPoolBuilder::new()

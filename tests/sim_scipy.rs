@@ -30,7 +30,7 @@ fn scipy_reads_the_ground_truth_written_by_synth() {
     }
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("cup");
-    let status = Command::new(env!("CARGO_BIN_EXE_neus-aug"))
+    let out = Command::new(env!("CARGO_BIN_EXE_neus-aug"))
         .args([
             "synth",
             "cup",
@@ -44,9 +44,13 @@ fn scipy_reads_the_ground_truth_written_by_synth() {
         .arg("--out")
         .arg(&scene)
         .arg("--quiet")
-        .status()
+        .output()
         .unwrap();
-    assert!(status.success());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let (ok, text) = run_check(&scene);
     assert!(ok && text.contains("OK: scipy.io.loadmat reads"), "{text}");
 

@@ -12,11 +12,15 @@ pub struct SynthArgs {
     /// With --mesh and no scene, the default scene's rig and effects are used.
     pub scene: Option<String>,
     /// Output folder (created; must be absent or empty).
-    #[arg(long, required_unless_present = "list")]
+    #[arg(long, required_unless_present_any = ["list", "print_toml"])]
     pub out: Option<PathBuf>,
     /// List the built-in scenes and exit.
     #[arg(long)]
     pub list: bool,
+    /// Print the resolved scene description (TOML, options applied) and exit without rendering:
+    /// a starting point for a scene file of your own.
+    #[arg(long)]
+    pub print_toml: bool,
     /// Image size WIDTHxHEIGHT (default from the scene: 400x300).
     #[arg(long, value_parser = parse_resolution)]
     pub resolution: Option<[u32; 2]>,
@@ -30,7 +34,7 @@ pub struct SynthArgs {
     #[arg(long)]
     pub mesh: Option<PathBuf>,
     /// The mesh file's up axis: +x, -x, +y, -y, +z or -z.
-    #[arg(long, requires = "mesh")]
+    #[arg(long, requires = "mesh", allow_hyphen_values = true)]
     pub up_axis: Option<String>,
     /// Samples per pixel (default from the scene: 4).
     #[arg(long)]
@@ -128,8 +132,12 @@ pub fn run(args: SynthArgs) -> anyhow::Result<()> {
         }
         return Ok(());
     }
-    let out = args.out.clone().context("--out DIR is required")?;
     let desc = describe(&args)?;
+    if args.print_toml {
+        print!("{}", desc.to_toml());
+        return Ok(());
+    }
+    let out = args.out.clone().context("--out DIR is required")?;
     let quiet = args.quiet;
     let progress = move |msg: &str| {
         if !quiet {

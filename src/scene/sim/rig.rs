@@ -9,11 +9,11 @@
 //!   near the world origin looking down `+z` at an object a few hundred mm away, with "up" along
 //!   `−y` (the OpenCV camera's image-up).
 //!
-//! Intrinsics: DTU's cameras at 1600×1200 have fx ≈ 2892.3, fy ≈ 2883.2, cx ≈ 823.2,
-//! cy ≈ 619.1 px (the `K` of lioryariv/idr's DTU `cameras.npz`, decomposed from `world_mat_0`;
-//! all 49 are nearly equal). They are scaled to the requested size with continuous pixel
-//! coordinates (`u' = u · W'/1600`, `v' = v · H'/1200`), which keeps the pixel-centre convention
-//! of [`crate::scene::camera`].
+//! Intrinsics: DTU's cameras at 1600×1200 share fx ≈ 2892.33, fy ≈ 2883.18, cx ≈ 823.205,
+//! cy ≈ 619.071 px (the `K` that the DTU `cameras_sphere.npz` of IDR/NeuS decompose to, skew
+//! ≈ −3e-4 dropped; MVS pipelines use the same numbers "for all DTU datasets"). They are scaled to
+//! the requested size with continuous pixel coordinates (`u' = u · W'/1600`, `v' = v · H'/1200`),
+//! which keeps the pixel-centre convention of [`crate::scene::camera`].
 //!
 //! Layout: `rows = ceil(sqrt(n))` rings of elevation evenly spread over `elevation_deg`, the
 //! views split as evenly as possible over rows, each row's azimuths evenly spread over
@@ -29,7 +29,7 @@ use crate::scene::{Camera, Normalization};
 use nalgebra::{Matrix3, Vector3};
 
 /// DTU intrinsics at 1600×1200: `(fx, fy, cx, cy)` (see the module doc).
-pub const DTU_INTRINSICS: (f64, f64, f64, f64) = (2892.33, 2883.18, 823.21, 619.07);
+pub const DTU_INTRINSICS: (f64, f64, f64, f64) = (2892.33, 2883.18, 823.205, 619.071);
 /// The image size DTU's intrinsics refer to.
 pub const DTU_SIZE: (f64, f64) = (1600.0, 1200.0);
 
