@@ -7,7 +7,7 @@
 pub mod augment;
 pub mod field;
 pub mod mesh;
+pub mod reconstruct;
 pub mod render;
 pub mod scene;
 pub mod train;
-pub mod reconstruct;

@@ -7,6 +7,7 @@ mod eval;
 mod inspect;
 mod mcubes;
 mod reconstruct;
+mod synth;
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
 #[derive(Debug, Parser)]
@@ -24,6 +25,8 @@ pub enum Command {
     Eval(dtu_eval::cli::EvalArgs),
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect(inspect::InspectArgs),
+    /// Render a synthetic scene into the DTU layout with its ground truth.
+    Synth(synth::SynthArgs),
     /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
     /// applied to one image (--apply KIND:v IN.png OUT.png).
     Augment(augment::AugmentArgs),
@@ -37,6 +40,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Reconstruct(args) => reconstruct::run(*args),
         Command::Eval(args) => eval::run(&args),
         Command::Inspect(args) => inspect::run(args),
+        Command::Synth(args) => synth::run(args),
         Command::Augment(args) => augment::run(args),
         Command::Mcubes(args) => mcubes::run(args),
     }

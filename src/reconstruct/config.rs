@@ -85,11 +85,17 @@ impl Holdout {
                 if *k >= n {
                     return Err(invalid("data.holdout", k, "leaves no training view"));
                 }
-                (0..*k).map(|i| ((i as f64 + 0.5) * n as f64 / *k as f64) as usize).collect()
+                (0..*k)
+                    .map(|i| ((i as f64 + 0.5) * n as f64 / *k as f64) as usize)
+                    .collect()
             }
             Holdout::Views(v) => {
                 if let Some(bad) = v.iter().find(|&&i| i >= n) {
-                    return Err(invalid("data.holdout", bad, &format!("the scene has {n} views")));
+                    return Err(invalid(
+                        "data.holdout",
+                        bad,
+                        &format!("the scene has {n} views"),
+                    ));
                 }
                 v.clone()
             }
@@ -97,7 +103,11 @@ impl Holdout {
         v.sort_unstable();
         v.dedup();
         if v.len() >= n {
-            return Err(invalid("data.holdout", format!("{v:?}"), "leaves no training view"));
+            return Err(invalid(
+                "data.holdout",
+                format!("{v:?}"),
+                "leaves no training view",
+            ));
         }
         Ok(v)
     }
@@ -306,7 +316,11 @@ fn merge(base: &mut toml::Value, over: toml::Value) {
 fn set_dotted(root: &mut toml::Value, key: &str, value: toml::Value) -> Result<(), ConfigError> {
     let parts: Vec<&str> = key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
-        return Err(invalid(key, "", "is not a dotted key like train.iterations"));
+        return Err(invalid(
+            key,
+            "",
+            "is not a dotted key like train.iterations",
+        ));
     }
     let mut node = root;
     for p in &parts[..parts.len() - 1] {
@@ -377,15 +391,21 @@ pub fn resolve(
     for (k, v) in overrides {
         set_dotted(&mut tree, k, v.clone())?;
     }
-    set_dotted(&mut tree, "preset", toml::Value::String(preset.name().into()))?;
+    set_dotted(
+        &mut tree,
+        "preset",
+        toml::Value::String(preset.name().into()),
+    )?;
     let origin = match file {
         Some(p) => format!("configuration ({} and command line)", p.display()),
         None => "configuration (command line)".to_string(),
     };
-    let mut cfg: RunConfig = tree.try_into().map_err(|e: toml::de::Error| ConfigError::Parse {
-        origin,
-        message: e.to_string(),
-    })?;
+    let mut cfg: RunConfig = tree
+        .try_into()
+        .map_err(|e: toml::de::Error| ConfigError::Parse {
+            origin,
+            message: e.to_string(),
+        })?;
     cfg.apply_augment_to_model();
     cfg.validate()?;
     Ok(cfg)
@@ -397,14 +417,26 @@ impl RunConfig {
         let t = &self.train;
         let o = &t.optimizer;
         if !(o.lr.is_finite() && o.lr > 0.0) {
-            return Err(invalid("train.optimizer.lr", o.lr, "must be a positive number"));
+            return Err(invalid(
+                "train.optimizer.lr",
+                o.lr,
+                "must be a positive number",
+            ));
         }
         if !(o.weight_decay.is_finite() && o.weight_decay >= 0.0) {
-            return Err(invalid("train.optimizer.weight_decay", o.weight_decay, "must be ≥ 0"));
+            return Err(invalid(
+                "train.optimizer.weight_decay",
+                o.weight_decay,
+                "must be ≥ 0",
+            ));
         }
         for (k, b) in [("beta1", o.beta1), ("beta2", o.beta2)] {
             if !(0.0..1.0).contains(&b) {
-                return Err(invalid(&format!("train.optimizer.{k}"), b, "must be in [0, 1)"));
+                return Err(invalid(
+                    &format!("train.optimizer.{k}"),
+                    b,
+                    "must be in [0, 1)",
+                ));
             }
         }
         if !(o.eps.is_finite() && o.eps > 0.0) {
@@ -415,14 +447,26 @@ impl RunConfig {
         }
         let lr = &t.lr;
         if !(lr.final_factor.is_finite() && lr.final_factor > 0.0) {
-            return Err(invalid("train.lr.final_factor", lr.final_factor, "must be positive"));
+            return Err(invalid(
+                "train.lr.final_factor",
+                lr.final_factor,
+                "must be positive",
+            ));
         }
         if !(lr.warmup_start.is_finite() && (0.0..=1.0).contains(&lr.warmup_start)) {
-            return Err(invalid("train.lr.warmup_start", lr.warmup_start, "must be in [0, 1]"));
+            return Err(invalid(
+                "train.lr.warmup_start",
+                lr.warmup_start,
+                "must be in [0, 1]",
+            ));
         }
         let d = &self.data;
         if !(d.views_fraction.is_finite() && d.views_fraction > 0.0 && d.views_fraction <= 1.0) {
-            return Err(invalid("data.views_fraction", d.views_fraction, "must be in (0, 1]"));
+            return Err(invalid(
+                "data.views_fraction",
+                d.views_fraction,
+                "must be in (0, 1]",
+            ));
         }
         if d.downscale == 0 {
             return Err(invalid("data.downscale", 0, "must be at least 1"));
@@ -432,7 +476,11 @@ impl RunConfig {
         }
         let m = &self.mesh;
         if m.coarse_res < 2 || m.fine_res < 2 {
-            return Err(invalid("mesh.fine_res", m.fine_res.min(m.coarse_res), "must be at least 2"));
+            return Err(invalid(
+                "mesh.fine_res",
+                m.fine_res.min(m.coarse_res),
+                "must be at least 2",
+            ));
         }
         let r = &self.model.render;
         if r.num_samples_per_ray == 0 || r.train_num_rays == 0 || r.max_train_num_rays == 0 {
@@ -443,7 +491,12 @@ impl RunConfig {
             ));
         }
         let l = &self.model.loss;
-        for (k, w) in [("rgb_l1", l.rgb_l1), ("rgb_mse", l.rgb_mse), ("eikonal", l.eikonal), ("mask", l.mask)] {
+        for (k, w) in [
+            ("rgb_l1", l.rgb_l1),
+            ("rgb_mse", l.rgb_mse),
+            ("eikonal", l.eikonal),
+            ("mask", l.mask),
+        ] {
             if !(w.is_finite() && w >= 0.0) {
                 return Err(invalid(&format!("model.loss.{k}"), w, "must be ≥ 0"));
             }
@@ -536,11 +589,21 @@ mod tests {
     fn file_then_flags_then_set_override_in_order() {
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("c.toml");
-        std::fs::write(&f, "preset = \"fast\"\nseed = 3\n[train]\niterations = 77\n").unwrap();
+        std::fs::write(
+            &f,
+            "preset = \"fast\"\nseed = 3\n[train]\niterations = 77\n",
+        )
+        .unwrap();
         let c = resolve(None, Some(&f), &[]).unwrap();
-        assert_eq!((c.preset, c.seed, c.train.iterations), (Preset::Fast, 3, 77));
+        assert_eq!(
+            (c.preset, c.seed, c.train.iterations),
+            (Preset::Fast, 3, 77)
+        );
         // Other fast-preset values survive the partial [train] table.
-        assert_eq!(c.train.lr.constant_steps, Preset::Fast.config().train.lr.constant_steps);
+        assert_eq!(
+            c.train.lr.constant_steps,
+            Preset::Fast.config().train.lr.constant_steps
+        );
         let sets = vec![
             parse_set("train.iterations=5").unwrap(),
             parse_set("data.degrade=gaussian:0.05").unwrap(),
@@ -558,10 +621,17 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("iterationz"), "{e}");
-        let e = resolve(None, None, &[parse_set("train.optimizer.lr=-0.01").unwrap()])
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("train.optimizer.lr") && e.contains("-0.01"), "{e}");
+        let e = resolve(
+            None,
+            None,
+            &[parse_set("train.optimizer.lr=-0.01").unwrap()],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("train.optimizer.lr") && e.contains("-0.01"),
+            "{e}"
+        );
         let e = resolve(None, None, &[parse_set("data.views_fraction=0").unwrap()])
             .unwrap_err()
             .to_string();
@@ -583,7 +653,10 @@ mod tests {
         assert_eq!(Holdout::Count(0).indices(5).unwrap(), Vec::<usize>::new());
         assert!(Holdout::Count(5).indices(5).is_err());
         assert!(Holdout::Views(vec![9]).indices(5).is_err());
-        assert_eq!(Holdout::Views(vec![3, 1, 3]).indices(5).unwrap(), vec![1, 3]);
+        assert_eq!(
+            Holdout::Views(vec![3, 1, 3]).indices(5).unwrap(),
+            vec![1, 3]
+        );
     }
 
     #[test]

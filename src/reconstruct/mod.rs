@@ -13,8 +13,7 @@
 pub mod config;
 
 pub use config::{
-    parse_set, resolve, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig, Preset,
-    RunConfig,
+    parse_set, resolve, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig, Preset, RunConfig,
 };
 
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
@@ -110,7 +109,11 @@ pub struct ResolvedScene {
 /// Resolves a scene name as ../shared/DESIGN.md §2 orders it: a folder; `<data_root>/<name>` or
 /// `<data_root>/dtu_<name>`; a built-in synthetic scene (generated once into the cache). An
 /// empty name is the embedded default scene.
-pub fn resolve_scene(spec: &str, data_root: &Path, quiet: bool) -> Result<ResolvedScene, ReconstructError> {
+pub fn resolve_scene(
+    spec: &str,
+    data_root: &Path,
+    quiet: bool,
+) -> Result<ResolvedScene, ReconstructError> {
     let name = if spec.is_empty() { "default" } else { spec };
     let as_path = Path::new(name);
     let short = |p: &Path| {
@@ -138,7 +141,10 @@ pub fn resolve_scene(spec: &str, data_root: &Path, quiet: bool) -> Result<Resolv
         Ok(_) => {
             let root = sim::default_cache_root()?;
             if !quiet {
-                eprintln!("scene '{name}': built-in synthetic scene (cache {})", root.display());
+                eprintln!(
+                    "scene '{name}': built-in synthetic scene (cache {})",
+                    root.display()
+                );
             }
             let dir = sim::ensure_builtin(name, &root)?;
             Ok(ResolvedScene {
@@ -338,7 +344,11 @@ fn find_gt(cfg: &RunConfig, scene: &ResolvedScene) -> Result<(PathBuf, u32), Str
         .or(meta_scan)
         .or_else(name_scan)
         .ok_or_else(|| format!("no scan number for scene '{}' (set eval.scan)", scene.name))?;
-    let root = cfg.eval.gt_root.clone().unwrap_or_else(|| scene.dir.clone());
+    let root = cfg
+        .eval
+        .gt_root
+        .clone()
+        .unwrap_or_else(|| scene.dir.clone());
     let paths = dtu_eval::gt::GtPaths::new(&root, scan);
     for p in [&paths.points, &paths.obs_mask, &paths.plane] {
         if !p.is_file() {
@@ -388,7 +398,9 @@ impl Progress {
         if let Some(b) = &self.bar {
             b.set_position(step);
             b.set_message(msg);
-        } else if !self.quiet && (step - self.last_line >= (self.total / 20).max(1) || step == self.total) {
+        } else if !self.quiet
+            && (step - self.last_line >= (self.total / 20).max(1) || step == self.total)
+        {
             self.last_line = step;
             eprintln!(
                 "step {step}/{} {msg} ({:.0} s)",
@@ -451,7 +463,10 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let candidates: Vec<usize> = (0..n).filter(|i| !heldout.contains(i)).collect();
     let keep = views_fraction(candidates.len(), cfg.data.views_fraction, cfg.seed)?;
     let train_idx: Vec<usize> = keep.iter().map(|&k| candidates[k]).collect();
-    let mut images: Vec<RgbImage> = train_idx.iter().map(|&i| scene.views[i].image.clone()).collect();
+    let mut images: Vec<RgbImage> = train_idx
+        .iter()
+        .map(|&i| scene.views[i].image.clone())
+        .collect();
     if let Some(d) = &cfg.data.degrade {
         degrade_views(&mut images, d, cfg.seed);
     }
@@ -459,7 +474,10 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         .iter()
         .map(|&i| scene.views[i].mask.clone())
         .collect();
-    let cameras: Vec<_> = train_idx.iter().map(|&i| scene.views[i].camera.clone()).collect();
+    let cameras: Vec<_> = train_idx
+        .iter()
+        .map(|&i| scene.views[i].camera.clone())
+        .collect();
     let sampler = AugSampler::new(images, &cfg.augment)?;
     let data = TrainData::new(&cameras, sampler, masks, cfg.model.render.background)?;
     let model = NeusModel::new(cfg.model.clone())?;
@@ -469,7 +487,13 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let t = Instant::now();
     let hash = cfg.training_hash();
     let ckpt_path = out.join("checkpoint.safetensors");
-    let mut trainer = Trainer::new(&model, &data, &cfg.train, cfg.seed, cfg.augment.seed ^ cfg.seed);
+    let mut trainer = Trainer::new(
+        &model,
+        &data,
+        &cfg.train,
+        cfg.seed,
+        cfg.augment.seed ^ cfg.seed,
+    );
     let mut state: TrainState = if opts.resume && ckpt_path.is_file() {
         let s = checkpoint::load(&ckpt_path, &model.layout, &cfg.train.optimizer, &hash)?;
         say(quiet, format!("resuming from step {}", s.step));
@@ -576,7 +600,10 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     // Evaluation.
     let t = Instant::now();
     let (chamfer, eval_note) = if !cfg.eval.enabled {
-        (None, Some("evaluation disabled (eval.enabled = false)".to_string()))
+        (
+            None,
+            Some("evaluation disabled (eval.enabled = false)".to_string()),
+        )
     } else {
         match find_gt(cfg, &scene_ref) {
             Err(note) => (None, Some(note)),
@@ -585,7 +612,8 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 let params = dtu_eval::report::DtuParams::default();
                 let e = dtu_eval::protocol::evaluate_mesh(&mesh, &gt, &params, cfg.seed)?;
                 if cfg.eval.vis {
-                    dtu_eval::vis::write_error_clouds(&out, &e, &params)?;
+                    // DTUeval-python's default `visualize_threshold` (10 mm).
+                    dtu_eval::vis::write_dtu(&out, scan, &e, &gt.points, 10.0, params.max_dist)?;
                 }
                 (
                     Some(ChamferMetrics {
@@ -717,6 +745,13 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         &out.join("metrics.json"),
         &serde_json::to_string_pretty(&metrics).expect("metrics serialise"),
     )?;
-    say(quiet, format!("done in {:.1} s: {}", metrics.timings_s.total, out.join("metrics.json").display()));
+    say(
+        quiet,
+        format!(
+            "done in {:.1} s: {}",
+            metrics.timings_s.total,
+            out.join("metrics.json").display()
+        ),
+    );
     Ok(metrics)
 }

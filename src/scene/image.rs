@@ -210,7 +210,13 @@ impl GrayImage {
 }
 
 /// Area average over `f×f` blocks of an interleaved `[h][w][channels]` buffer.
-fn downscale_channels(data: &[f32], width: usize, height: usize, channels: usize, f: usize) -> Vec<f32> {
+fn downscale_channels(
+    data: &[f32],
+    width: usize,
+    height: usize,
+    channels: usize,
+    f: usize,
+) -> Vec<f32> {
     assert!(f >= 1, "downscale factor must be at least 1");
     let (w, h) = (width / f, height / f);
     let norm = 1.0 / (f * f) as f32;
