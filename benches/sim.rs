@@ -99,14 +99,17 @@ fn main() {
     let gt = scene.ground_truth();
     let t_gt = t.elapsed().as_secs_f64();
     println!(
-        "ground truth: {t_gt:.2} s, {} samples -> {} visible points, {:.2} M occlusion rays \
-         ({:.2} M rays/s), {} back-facing skips, {} observed voxels",
+        "ground truth: {t_gt:.2} s, {} samples -> {} visible points, {:.2} M occlusion rays, \
+         {} back-facing skips; ObsMask: {} band voxels tested with {:.2} M rays, {} observed; \
+         {:.2} M rays/s overall",
         gt.stats.sampled,
         gt.stats.visible,
         gt.stats.occlusion_rays as f64 / 1e6,
-        gt.stats.occlusion_rays as f64 / t_gt / 1e6,
         gt.stats.backfacing_skips,
-        gt.stats.obs_voxels
+        gt.stats.obs_tested,
+        gt.stats.obs_rays as f64 / 1e6,
+        gt.stats.obs_voxels,
+        (gt.stats.occlusion_rays + gt.stats.obs_rays) as f64 / t_gt / 1e6
     );
     println!(
         "default scene total (prepare + render + ground truth, without writing): {:.2} s",

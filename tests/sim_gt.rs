@@ -345,3 +345,84 @@ fn the_mask_check_catches_a_wrong_view() {
     let caught = std::panic::catch_unwind(|| check_masks_against(&desc, 1));
     assert!(caught.is_err(), "masks of the wrong view passed the check");
 }
+
+/// The observation mask, voxel by voxel, against an independent f64 reference: a voxel is
+/// observed iff it holds a GT point, or it lies within the band and its centre is above the
+/// plane, outside the solid (ray-crossing parity, not orientation) and seen by a camera.
+fn check_observation_mask(desc: &SceneDescription, n_check: usize) {
+    use rand::{Rng, SeedableRng};
+    let scene = SimScene::prepare(desc).unwrap();
+    let gt = scene.ground_truth();
+    let tris = triangles(&scene);
+    let m = &gt.obs_mask;
+    let (res, dilate) = (m.res, desc.gt.obs_dilate_mm);
+    let surface: HashSet<[i64; 3]> = gt
+        .points
+        .iter()
+        .map(|p| neus_aug::scene::sim::gt::voxel_index(*p, m.bb[0], res))
+        .collect();
+    let r = (dilate / res).floor() as i64;
+    let in_band = |v: [i64; 3]| {
+        (-r..=r).any(|i| {
+            (-r..=r).any(|j| {
+                (-r..=r).any(|k| {
+                    ((i * i + j * j + k * k) as f64) * res * res <= dilate * dilate
+                        && surface.contains(&[v[0] + i, v[1] + j, v[2] + k])
+                })
+            })
+        })
+    };
+    let dir = {
+        let d = [0.123, 0.456, 0.881];
+        let n = dot(d, d).sqrt();
+        d.map(|x| x / n)
+    };
+    let inside = |c: V3| {
+        tris.iter()
+            .filter(|[a, b, cc]| ray_triangle(c, dir, *a, *b, *cc).is_some_and(|t| t > 0.0))
+            .count()
+            % 2
+            == 1
+    };
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+    let (mut observed, mut unobserved, mut mismatches) = (0, 0, 0);
+    while observed + unobserved < n_check {
+        let v: [i64; 3] = std::array::from_fn(|k| rng.random_range(0..m.dims[k] as i64));
+        let holds_point = surface.contains(&v);
+        if !holds_point && !in_band(v) {
+            continue;
+        }
+        let c: V3 = std::array::from_fn(|k| m.bb[0][k] + v[k] as f64 * res);
+        let reference = holds_point
+            || (gt.plane.eval(c) > 0.0
+                && !inside(c)
+                && scene.cameras.iter().any(|cam| {
+                    in_image(cam, c) && !blocked(&tris, cam, c, desc.gt.occlusion_eps_mm)
+                }));
+        let got = m.get(v[0], v[1], v[2]);
+        if got {
+            observed += 1;
+        } else {
+            unobserved += 1;
+        }
+        if got != reference {
+            mismatches += 1;
+        }
+    }
+    assert!(
+        observed > n_check / 10 && unobserved > n_check / 10,
+        "{}: sample not mixed ({observed} observed, {unobserved} not)",
+        desc.name
+    );
+    assert!(
+        mismatches <= n_check / 100,
+        "{}: {mismatches} of {n_check} band voxels disagree with the reference",
+        desc.name
+    );
+}
+
+#[test]
+fn observation_mask_is_the_observed_volume() {
+    check_observation_mask(&small("blob", 80, 60, 6, 1, 2.0), 150);
+    check_observation_mask(&small("cup", 80, 60, 6, 1, 2.0), 150);
+}

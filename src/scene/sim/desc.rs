@@ -231,7 +231,8 @@ pub struct GtSpec {
     pub spacing_mm: f64,
     /// `Res` of the observation mask: voxel edge (mm).
     pub obs_res_mm: f64,
-    /// Voxels within this distance (mm) of a visible ground-truth point are observed.
+    /// The observation mask considers voxels within this distance (mm) of a visible
+    /// ground-truth point (20 mm, DTU's outlier cut-off, makes it the whole observed volume).
     pub obs_dilate_mm: f64,
     /// A point is occluded from a camera only by a surface more than this far (mm) in front of
     /// it along the line of sight.
@@ -243,7 +244,7 @@ impl Default for GtSpec {
         Self {
             spacing_mm: 0.2,
             obs_res_mm: 2.0,
-            obs_dilate_mm: 10.0,
+            obs_dilate_mm: 20.0,
             occlusion_eps_mm: 0.02,
         }
     }

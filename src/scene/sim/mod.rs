@@ -48,7 +48,7 @@ use std::time::Instant;
 
 /// Bumped whenever the renderer or ground-truth code changes what a description produces, so
 /// cached scenes made by older code are not reused.
-pub const SIM_FORMAT_VERSION: u32 = 1;
+pub const SIM_FORMAT_VERSION: u32 = 2;
 
 /// Why a synthetic scene cannot be described, prepared or written. Every variant names the key,
 /// file or value at fault.
@@ -123,7 +123,7 @@ pub struct Timings {
     pub write_s: f64,
     /// (primary + shadow rays) / render_s.
     pub render_rays_per_s: f64,
-    /// Occlusion rays / gt_s.
+    /// (visibility + observation-mask rays) / gt_s.
     pub gt_rays_per_s: f64,
 }
 
@@ -307,7 +307,7 @@ pub fn generate(
         write_s,
         render_rays_per_s: (counters.primary_rays + counters.shadow_rays) as f64
             / render_s.max(1e-9),
-        gt_rays_per_s: gt.stats.occlusion_rays as f64 / gt_s.max(1e-9),
+        gt_rays_per_s: (gt.stats.occlusion_rays + gt.stats.obs_rays) as f64 / gt_s.max(1e-9),
     };
     let timings_path = out.join("timings.json");
     std::fs::write(
