@@ -529,7 +529,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         last = Some(report);
         let every = cfg.train.checkpoint_every;
         let stop = opts.stop_after.is_some_and(|s| state.step >= s);
-        if state.step == iters || stop || (every > 0 && state.step % every == 0) {
+        if state.step == iters || stop || (every > 0 && state.step.is_multiple_of(every)) {
             checkpoint::save(&ckpt_path, &state, &model.layout, &config_toml, &hash)?;
         }
         if stop {
@@ -667,15 +667,15 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 p: &p,
             },
             sched,
-            None,
+            model.config.render.occupancy.enabled.then_some(&state.occ),
         )?;
         let bg = model.config.render.background;
         let mut gt = view.image.downscaled(k);
         if let Some(m) = view.mask.as_ref().filter(|_| cfg.data.masks) {
             let m = m.downscaled(k);
-            for (i, mv) in m.data.iter().enumerate() {
-                for c in 0..3 {
-                    gt.data[i * 3 + c] = gt.data[i * 3 + c] * mv + bg[c] * (1.0 - mv);
+            for (px, mv) in gt.data.chunks_exact_mut(3).zip(&m.data) {
+                for (v, b) in px.iter_mut().zip(bg) {
+                    *v = *v * mv + b * (1.0 - mv);
                 }
             }
         }

@@ -302,11 +302,4 @@ mod tests {
         );
         assert!(p.iter().all(|v| v.is_finite()));
     }
-
-    #[test]
-    fn schedule_factor() {
-        assert_eq!(lr_factor(100, 5000, 20000, 0.1), 1.0);
-        assert!((lr_factor(20000, 5000, 20000, 0.1) - 0.1).abs() < 1e-12);
-        assert!((lr_factor(12500, 5000, 20000, 0.1) - 0.1f64.sqrt()).abs() < 1e-12);
-    }
 }

@@ -239,7 +239,13 @@ mod tests {
             }
         }
         let sampler = AugSampler::new(vec![img.clone()], &AugmentConfig::default()).unwrap();
-        let data = TrainData::new(&[cam.clone()], sampler, Some(vec![mask]), [1.0; 3]).unwrap();
+        let data = TrainData::new(
+            std::slice::from_ref(&cam),
+            sampler,
+            Some(vec![mask]),
+            [1.0; 3],
+        )
+        .unwrap();
         let mut batch = Batch::default();
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(1);
         let mut aug = rand_pcg::Pcg64Mcg::seed_from_u64(2);
@@ -273,7 +279,10 @@ mod tests {
             [1.0; 3],
         );
         assert!(matches!(err, Err(DataError::AllMasksEmpty)));
-        let sampler = AugSampler::new(vec![], &AugmentConfig::default()).unwrap();
+        // The sampler itself refuses an empty image list; cameras without views are refused here.
+        assert!(AugSampler::new(vec![], &AugmentConfig::default()).is_err());
+        let sampler =
+            AugSampler::new(vec![RgbImage::new(32, 24)], &AugmentConfig::default()).unwrap();
         assert!(matches!(
             TrainData::new(&[], sampler, None, [1.0; 3]),
             Err(DataError::NoViews)

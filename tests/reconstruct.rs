@@ -1,0 +1,344 @@
+//! `neus-aug reconstruct` end to end on a tiny synthetic scene: determinism, kill and resume,
+//! outputs, and a clear error (with no complete-looking output) for each kind of bad input.
+
+use neus_aug::scene::sim;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+/// A tiny built-in-like scene (8 views at 48×36, coarse ground truth), generated once.
+fn tiny_scene() -> &'static Path {
+    static SCENE: OnceLock<PathBuf> = OnceLock::new();
+    SCENE.get_or_init(|| {
+        let mut desc = sim::builtin("blob").unwrap();
+        desc.rig.views = 8;
+        desc.rig.resolution = [48, 36];
+        desc.render.spp = 1;
+        desc.gt.spacing_mm = 1.0;
+        desc.gt.obs_res_mm = 4.0;
+        let root = tempfile::tempdir().unwrap().keep();
+        let dir = root.join("tiny");
+        sim::generate(&desc, &dir, &Default::default()).unwrap();
+        dir
+    })
+}
+
+/// A configuration small enough for a test: a few dozen steps of a tiny network.
+const TINY: &str = r#"
+preset = "fast"
+[data]
+holdout = 1
+render_downscale = 2
+[train]
+iterations = 24
+checkpoint_every = 4
+[train.lr]
+warmup_steps = 0
+constant_steps = 12
+[model.field.hash_grid]
+n_levels = 6
+log2_hashmap_size = 12
+base_resolution = 8.0
+per_level_scale = 1.5
+[model.render]
+num_samples_per_ray = 64
+train_num_rays = 64
+max_train_num_rays = 256
+shards = 2
+[model.render.occupancy]
+resolution = 16
+[mesh]
+coarse_res = 24
+fine_res = 32
+"#;
+
+fn write_config(dir: &Path, extra: &str) -> PathBuf {
+    let p = dir.join("tiny.toml");
+    std::fs::write(&p, format!("{TINY}\n{extra}")).unwrap();
+    p
+}
+
+fn neus_aug() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_neus-aug"));
+    c.env("RAYON_NUM_THREADS", "2");
+    c
+}
+
+fn reconstruct(config: &Path, out: &Path, extra: &[&str]) -> Output {
+    neus_aug()
+        .arg("reconstruct")
+        .arg(tiny_scene())
+        .args([
+            "--config",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "reconstruct failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn same_seed_gives_the_same_mesh_and_all_outputs_exist() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), "");
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    ok(&reconstruct(&cfg, &a, &[]));
+    ok(&reconstruct(&cfg, &b, &[]));
+    let mesh_a = std::fs::read(a.join("mesh.ply")).unwrap();
+    assert_eq!(
+        mesh_a,
+        std::fs::read(b.join("mesh.ply")).unwrap(),
+        "same seed, same mesh bytes"
+    );
+    for f in [
+        "config.toml",
+        "checkpoint.safetensors",
+        "metrics.json",
+        "renders",
+    ] {
+        assert!(a.join(f).exists(), "{f} missing");
+    }
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(m["train"]["iterations"], 24);
+    assert!(
+        m["chamfer"]["chamfer_sum"].as_f64().unwrap().is_finite(),
+        "{m}"
+    );
+    assert!(m["psnr_heldout"].as_f64().unwrap().is_finite());
+    for phase in ["load", "train", "mesh", "eval", "render", "total"] {
+        assert!(m["timings_s"][phase].as_f64().unwrap() >= 0.0, "{phase}");
+    }
+    // The mesh is in world mm: its centre is near the scene's normalisation centre, not the origin.
+    let mesh = dtu_eval::ply::read_mesh(&a.join("mesh.ply")).unwrap();
+    let scene = neus_aug::scene::Scene::load(tiny_scene(), &Default::default()).unwrap();
+    let (lo, hi) = mesh.bounds().unwrap();
+    let c = scene.normalization.center;
+    for k in 0..3 {
+        let mid = 0.5 * (lo[k] + hi[k]) as f64;
+        assert!(
+            (mid - c[k]).abs() < scene.normalization.scale,
+            "axis {k}: {mid} vs {}",
+            c[k]
+        );
+    }
+    // A different seed trains differently.
+    let d = tmp.path().join("d");
+    ok(&reconstruct(&cfg, &d, &["--seed", "1"]));
+    assert_ne!(mesh_a, std::fs::read(d.join("mesh.ply")).unwrap());
+    // A finished run is never silently redone.
+    let again = reconstruct(&cfg, &a, &[]);
+    assert!(!again.status.success());
+    assert!(
+        stderr(&again).contains("already holds a finished run"),
+        "{}",
+        stderr(&again)
+    );
+}
+
+#[test]
+fn stop_then_resume_gives_the_same_mesh_as_an_uninterrupted_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), "");
+    let full = tmp.path().join("full");
+    ok(&reconstruct(&cfg, &full, &[]));
+    for stop in ["5", "12"] {
+        let out = tmp.path().join(format!("stopped{stop}"));
+        let o = reconstruct(&cfg, &out, &["--stop-after", stop]);
+        assert!(!o.status.success(), "--stop-after ends the run early");
+        assert!(!out.join("metrics.json").exists() && !out.join("mesh.ply").exists());
+        assert!(out.join("checkpoint.safetensors").exists());
+        // Without --resume the unfinished run is protected.
+        let o = reconstruct(&cfg, &out, &[]);
+        assert!(stderr(&o).contains("--resume"), "{}", stderr(&o));
+        ok(&reconstruct(&cfg, &out, &["--resume"]));
+        assert_eq!(
+            std::fs::read(full.join("mesh.ply")).unwrap(),
+            std::fs::read(out.join("mesh.ply")).unwrap(),
+            "resumed after step {stop}"
+        );
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        assert_eq!(m["train"]["resumed_from"], stop.parse::<u64>().unwrap());
+    }
+}
+
+#[test]
+fn killed_process_resumes_to_the_same_mesh() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Long enough that the process is still training when the first checkpoint appears.
+    let cfg = write_config(tmp.path(), "");
+    let extra = ["--iterations", "160"];
+    let full = tmp.path().join("full");
+    ok(&reconstruct(&cfg, &full, &extra));
+    let out = tmp.path().join("killed");
+    let mut child = neus_aug()
+        .arg("reconstruct")
+        .arg(tiny_scene())
+        .args([
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+        .args(extra)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    while !out.join("checkpoint.safetensors").exists() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "no checkpoint appeared"
+        );
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    assert!(
+        !out.join("metrics.json").exists(),
+        "the run finished before it could be killed; the test proves nothing"
+    );
+    ok(&reconstruct(
+        &cfg,
+        &out,
+        &[&extra[..], &["--resume"]].concat(),
+    ));
+    assert_eq!(
+        std::fs::read(full.join("mesh.ply")).unwrap(),
+        std::fs::read(out.join("mesh.ply")).unwrap()
+    );
+}
+
+/// Runs a failing reconstruct and checks its message and that nothing looks complete.
+fn fails_with(extra_config: &str, args: &[&str], scene: Option<&Path>, expect: &[&str]) {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), extra_config);
+    let out = tmp.path().join("out");
+    let o = neus_aug()
+        .arg("reconstruct")
+        .arg(scene.unwrap_or(tiny_scene()))
+        .args([
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+        .args(args)
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success(), "expected a failure for {expect:?}");
+    for e in expect {
+        assert!(err.contains(e), "message lacks {e:?}:\n{err}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+    if out.is_dir() {
+        assert!(!out.join("metrics.json").exists() && !out.join("mesh.ply").exists());
+    }
+}
+
+#[test]
+fn no_training_view_left_is_an_error() {
+    fails_with(
+        "",
+        &["--set", "data.holdout=8"],
+        None,
+        &["data.holdout", "no training view"],
+    );
+}
+
+#[test]
+fn all_empty_masks_are_an_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("empty-masks");
+    std::fs::create_dir_all(scene.join("image")).unwrap();
+    std::fs::create_dir_all(scene.join("mask")).unwrap();
+    for sub in ["image", "mask"] {
+        for e in std::fs::read_dir(tiny_scene().join(sub)).unwrap() {
+            let e = e.unwrap();
+            std::fs::copy(e.path(), scene.join(sub).join(e.file_name())).unwrap();
+        }
+    }
+    std::fs::copy(
+        tiny_scene().join("cameras_sphere.npz"),
+        scene.join("cameras_sphere.npz"),
+    )
+    .unwrap();
+    for e in std::fs::read_dir(scene.join("mask")).unwrap() {
+        neus_aug::scene::GrayImage::new(48, 36)
+            .save(&e.unwrap().path())
+            .unwrap();
+    }
+    fails_with("", &[], Some(&scene), &["mask", "empty"]);
+}
+
+#[test]
+fn unknown_config_key_is_named() {
+    fails_with("[eval]\nvisualise = true\n", &[], None, &["visualise"]);
+    fails_with("", &["--set", "model.render.samples=3"], None, &["samples"]);
+}
+
+#[test]
+fn negative_learning_rate_is_named() {
+    fails_with(
+        "",
+        &["--set", "train.optimizer.lr=-0.01"],
+        None,
+        &["train.optimizer.lr", "-0.01", "positive"],
+    );
+}
+
+#[test]
+fn output_folder_that_is_a_file_is_an_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), "");
+    let out = tmp.path().join("a-file");
+    std::fs::write(&out, b"not a folder").unwrap();
+    let o = reconstruct(&cfg, &out, &[]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("is a file"), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(&out).unwrap(),
+        b"not a folder",
+        "the file is untouched"
+    );
+}
+
+#[test]
+fn missing_scene_names_where_it_looked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = neus_aug()
+        .args(["reconstruct", "scan999", "--data-root"])
+        .arg(tmp.path())
+        .args(["--quiet", "--out"])
+        .arg(tmp.path().join("o"))
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    for e in ["scan999", "dtu_scan999", "built-in", "NEUS_AUG_DATA"] {
+        assert!(err.contains(e), "lacks {e}: {err}");
+    }
+}
