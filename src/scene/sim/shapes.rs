@@ -583,7 +583,9 @@ pub fn load_mesh(path: &Path, up: UpAxis) -> Result<Mesh, SimError> {
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     let tri = match ext.as_str() {
-        "ply" => dtu_eval::ply::read_mesh(path).map_err(|e| bad(e.to_string()))?,
+        "ply" => {
+            dtu_eval::ply::read_mesh(path).map_err(|e| bad(dtu_eval::error::error_chain(&e)))?
+        }
         "obj" => {
             let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
                 path: path.into(),
