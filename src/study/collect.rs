@@ -319,7 +319,10 @@ impl<'a> Layout<'a> {
     }
 
     fn values(&self, cond: &str, scene: &str, arm: AugMode, f: Metric) -> Vec<f64> {
-        self.cell(cond, scene, arm, f).into_iter().map(|p| p.1).collect()
+        self.cell(cond, scene, arm, f)
+            .into_iter()
+            .map(|p| p.1)
+            .collect()
     }
 
     /// Scenes of `cond` where every arm has at least one value: the mean rows compare like with
@@ -397,7 +400,12 @@ impl<'a> Layout<'a> {
         };
         scenes
             .into_iter()
-            .map(|s| pairs(&self.cell(&row.condition, s, arm, f), &self.cell(&row.condition, s, AugMode::None, f)))
+            .map(|s| {
+                pairs(
+                    &self.cell(&row.condition, s, arm, f),
+                    &self.cell(&row.condition, s, AugMode::None, f),
+                )
+            })
             .collect()
     }
 
@@ -415,6 +423,14 @@ fn pairs(a: &[(u64, f64)], b: &[(u64, f64)]) -> Vec<f64> {
 
 fn fmt_opt(v: Option<f64>, prec: usize) -> String {
     v.map_or("—".into(), |x| format!("{x:.prec$}"))
+}
+
+/// Seconds: one decimal below 10 s, whole seconds above.
+fn fmt_time(v: Option<f64>) -> String {
+    match v {
+        Some(x) if x < 10.0 => format!("{x:.1}"),
+        v => fmt_opt(v, 0),
+    }
 }
 
 fn fmt_signed(x: f64, prec: usize) -> String {
@@ -586,7 +602,11 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
             format!(", {} missing (listed at the end)", missing.len())
         }
     );
-    let _ = writeln!(md, "Made with:\n\n```\n{}\nneus-aug study collect STUDY_DIR\n```\n", study_command(&plan));
+    let _ = writeln!(
+        md,
+        "Made with:\n\n```\n{}\nneus-aug study collect STUDY_DIR\n```\n",
+        study_command(&plan)
+    );
     let _ = writeln!(
         md,
         "Distances are the DTU protocol in mm (accuracy = mesh → ground truth, completeness = \
@@ -607,10 +627,17 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
     };
 
     // Chamfer means, best bold, runner-up italic; time beside it.
-    let _ = writeln!(md, "## Chamfer distance (mm, mean over seeds; best **bold**, runner-up *italic*)\n");
+    let _ = writeln!(
+        md,
+        "## Chamfer distance (mm, mean over seeds; best **bold**, runner-up *italic*)\n"
+    );
     let mut t = Vec::new();
     for r in &rows {
-        let vals: Vec<Option<f64>> = lay.arms.iter().map(|&a| lay.row_mean(r, a, m_chamfer)).collect();
+        let vals: Vec<Option<f64>> = lay
+            .arms
+            .iter()
+            .map(|&a| lay.row_mean(r, a, m_chamfer))
+            .collect();
         let mut line = vec![r.label.clone()];
         line.extend(rank_marks(&vals, 3));
         t.push(line);
@@ -628,11 +655,20 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
             .map(|&a| stats::mean(&all_values(&lay, &all, a, m_train)))
             .collect();
         let mut line = vec!["train time (s)".to_string()];
-        line.extend(times.iter().map(|v| fmt_opt(*v, 0)));
+        line.extend(times.iter().map(|v| fmt_time(*v)));
         t.push(line);
-        if let Some(Some(b)) = lay.arms.iter().position(|a| *a == AugMode::None).map(|i| times[i]) {
+        if let Some(Some(b)) = lay
+            .arms
+            .iter()
+            .position(|a| *a == AugMode::None)
+            .map(|i| times[i])
+        {
             let mut line = vec!["train time / baseline".to_string()];
-            line.extend(times.iter().map(|v| v.map_or("—".into(), |x| format!("{:.2}×", x / b))));
+            line.extend(
+                times
+                    .iter()
+                    .map(|v| v.map_or("—".into(), |x| format!("{:.2}×", x / b))),
+            );
             t.push(line);
         }
     }
@@ -644,12 +680,19 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
         .iter()
         .map(|r| {
             let mut line = vec![r.label.clone()];
-            line.extend(lay.arms.iter().map(|&a| fmt_opt(lay.row_std(r, a, m_chamfer), 3)));
+            line.extend(
+                lay.arms
+                    .iter()
+                    .map(|&a| fmt_opt(lay.row_std(r, a, m_chamfer), 3)),
+            );
             line
         })
         .collect();
     md_table(&mut md, &arm_header(first_col), &t);
-    let _ = writeln!(md, "A `mean` row gives √(mean of the per-scene variances).\n");
+    let _ = writeln!(
+        md,
+        "A `mean` row gives √(mean of the per-scene variances).\n"
+    );
 
     // Accuracy / completeness.
     let _ = writeln!(md, "## Accuracy / completeness (mm)\n");
@@ -672,7 +715,12 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
     // Paired differences.
     let mut diffs = Vec::new();
     if lay.has_baseline_and_others() {
-        let others: Vec<AugMode> = lay.arms.iter().copied().filter(|a| *a != AugMode::None).collect();
+        let others: Vec<AugMode> = lay
+            .arms
+            .iter()
+            .copied()
+            .filter(|a| *a != AugMode::None)
+            .collect();
         let _ = writeln!(
             md,
             "## Paired differences arm − baseline (Chamfer, mm; negative: the arm is better)\n\n\
@@ -726,7 +774,11 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
             t.push(line);
         }
         let mut h = vec![first_col.to_string()];
-        h.extend(others.iter().map(|a| format!("{} − baseline", arm_title(*a))));
+        h.extend(
+            others
+                .iter()
+                .map(|a| format!("{} − baseline", arm_title(*a))),
+        );
         md_table(&mut md, &h, &t);
     }
 
@@ -736,7 +788,11 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
         .iter()
         .map(|r| {
             let mut line = vec![r.label.clone()];
-            line.extend(lay.arms.iter().map(|&a| fmt_opt(lay.row_mean(r, a, m_psnr), 2)));
+            line.extend(
+                lay.arms
+                    .iter()
+                    .map(|&a| fmt_opt(lay.row_mean(r, a, m_psnr), 2)),
+            );
             line
         })
         .collect();
@@ -757,12 +813,20 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
             condition: c.clone(),
             scene: None,
         };
-        let times: Vec<Option<f64>> = lay.arms.iter().map(|&a| stats::mean(&all_values(&lay, &row, a, m_train))).collect();
-        let base = lay.arms.iter().position(|a| *a == AugMode::None).and_then(|i| times[i]);
+        let times: Vec<Option<f64>> = lay
+            .arms
+            .iter()
+            .map(|&a| stats::mean(&all_values(&lay, &row, a, m_train)))
+            .collect();
+        let base = lay
+            .arms
+            .iter()
+            .position(|a| *a == AugMode::None)
+            .and_then(|i| times[i]);
         let mut line = vec![c.clone()];
         line.extend(times.iter().map(|v| match (v, base) {
-            (Some(x), Some(b)) if b > 0.0 => format!("{x:.0} ({:.2}×)", x / b),
-            (v, _) => fmt_opt(*v, 0),
+            (Some(x), Some(b)) if b > 0.0 => format!("{} ({:.2}×)", fmt_time(Some(*x)), x / b),
+            (v, _) => fmt_time(*v),
         }));
         t.push(line);
     }
@@ -788,16 +852,25 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
                     format!("{}{}", p.condition, if p.on_front { " ◆" } else { "" }),
                     fmt_opt(p.chamfer_mean, 3),
                     fmt_opt(p.chamfer_std, 3),
-                    fmt_opt(p.time_to_mesh_mean, 0),
-                    fmt_opt(p.train_mean, 0),
-                    fmt_opt(p.mesh_mean, 1),
+                    fmt_time(p.time_to_mesh_mean),
+                    fmt_time(p.train_mean),
+                    fmt_time(p.mesh_mean),
                     p.n.to_string(),
                 ]
             })
             .collect();
         md_table(
             &mut md,
-            &["variant", "Chamfer", "std", "time to mesh (s)", "train (s)", "mesh (s)", "n"].map(String::from),
+            &[
+                "variant",
+                "Chamfer",
+                "std",
+                "time to mesh (s)",
+                "train (s)",
+                "mesh (s)",
+                "n",
+            ]
+            .map(String::from),
             &t,
         );
     }
@@ -823,7 +896,11 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
         .map(|r| r.id.as_str())
         .collect();
     if !resumed.is_empty() {
-        let _ = writeln!(md, "Resumed after an interruption (their training time is partial): {}.\n", resumed.join(", "));
+        let _ = writeln!(
+            md,
+            "Resumed after an interruption (their training time is partial): {}.\n",
+            resumed.join(", ")
+        );
     }
     if !missing.is_empty() {
         let _ = writeln!(md, "Missing (not finished yet): {}.\n", missing.join(", "));
@@ -832,8 +909,16 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
         md,
         "Files: `runs.csv` and `runs.json` (every run), `summary.json` (every aggregate and \
          interval), `chamfer.png`{}{}.",
-        if o.grid == Grid::Reduced { ", `chamfer_vs_views.png`" } else { "" },
-        if pareto { ", `pareto.csv`, `pareto.png`" } else { "" }
+        if o.grid == Grid::Reduced {
+            ", `chamfer_vs_views.png`"
+        } else {
+            ""
+        },
+        if pareto {
+            ", `pareto.csv`, `pareto.png`"
+        } else {
+            ""
+        }
     );
     put("report.md", md.as_bytes())?;
 
@@ -888,7 +973,10 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
                 .map(|r| {
                     lay.arms
                         .iter()
-                        .map(|&a| lay.row_mean(r, a, m_chamfer).map(|m| (m, lay.row_std(r, a, m_chamfer).unwrap_or(0.0))))
+                        .map(|&a| {
+                            lay.row_mean(r, a, m_chamfer)
+                                .map(|m| (m, lay.row_std(r, a, m_chamfer).unwrap_or(0.0)))
+                        })
                         .collect()
                 })
                 .collect(),
@@ -904,11 +992,19 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
                     .conditions
                     .iter()
                     .filter_map(|c| {
-                        let x = plan.runs.iter().find(|r| &r.condition == c)?.views_fraction?;
+                        let x = plan
+                            .runs
+                            .iter()
+                            .find(|r| &r.condition == c)?
+                            .views_fraction?;
                         let row = Row {
                             label: String::new(),
                             condition: c.clone(),
-                            scene: if lay.scenes.len() == 1 { Some(lay.scenes[0].clone()) } else { None },
+                            scene: if lay.scenes.len() == 1 {
+                                Some(lay.scenes[0].clone())
+                            } else {
+                                None
+                            },
                         };
                         let m = lay.row_mean(&row, a, m_chamfer)?;
                         Some((x * 100.0, m, lay.row_std(&row, a, m_chamfer).unwrap_or(0.0)))
@@ -923,7 +1019,10 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
             y_label: "Chamfer acc + comp (mm)".into(),
             series,
         };
-        put("chamfer_vs_views.png", &plot::line_chart("chamfer_vs_views.png", &lines)?)?;
+        put(
+            "chamfer_vs_views.png",
+            &plot::line_chart("chamfer_vs_views.png", &lines)?,
+        )?;
     }
     if pareto {
         put("pareto.csv", pareto_csv(&pareto_rows).as_bytes())?;
@@ -995,7 +1094,11 @@ fn pareto_points(lay: &Layout<'_>) -> Vec<ParetoRow> {
             };
             let recs: Vec<&RunRecord> = lay.records.iter().filter(|r| &r.condition == c).collect();
             let ch: Vec<f64> = recs.iter().filter_map(|r| r.chamfer_sum).collect();
-            let tm: Vec<f64> = recs.iter().filter(|r| r.chamfer_sum.is_some()).map(|r| r.time_to_mesh).collect();
+            let tm: Vec<f64> = recs
+                .iter()
+                .filter(|r| r.chamfer_sum.is_some())
+                .map(|r| r.time_to_mesh)
+                .collect();
             let tr: Vec<f64> = recs.iter().filter_map(|r| m_train(r)).collect();
             let me: Vec<f64> = recs.iter().map(|r| r.time_mesh).collect();
             let _ = &row;
@@ -1028,7 +1131,9 @@ pub fn pareto_front(pts: &[Option<(f64, f64)>]) -> Vec<bool> {
     pts.iter()
         .map(|p| {
             let Some((t, e)) = *p else { return false };
-            !pts.iter().flatten().any(|&(t2, e2)| t2 <= t && e2 <= e && (t2 < t || e2 < e))
+            !pts.iter()
+                .flatten()
+                .any(|&(t2, e2)| t2 <= t && e2 <= e && (t2 < t || e2 < e))
         })
         .collect()
 }

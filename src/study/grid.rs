@@ -213,8 +213,7 @@ pub fn parse_scenes(list: &str, data_root: &Path) -> Result<Vec<String>, StudyEr
             } else {
                 item.to_string()
             });
-        } else if data_root.join(item).is_dir() || data_root.join(format!("dtu_{item}")).is_dir()
-        {
+        } else if data_root.join(item).is_dir() || data_root.join(format!("dtu_{item}")).is_dir() {
             out.push(item.to_string());
         } else {
             return Err(StudyError::Option {
@@ -306,7 +305,10 @@ pub fn pareto_variants(base: &RunConfig) -> Vec<(String, Preset, Vec<String>, bo
                     "model.render.cos_anneal_end",
                     scale(base.model.render.cos_anneal_end),
                 ),
-                set("train.lr.constant_steps", scale(base.train.lr.constant_steps)),
+                set(
+                    "train.lr.constant_steps",
+                    scale(base.train.lr.constant_steps),
+                ),
                 set("train.lr.warmup_steps", scale(base.train.lr.warmup_steps)),
             ],
             false,
@@ -426,7 +428,10 @@ pub fn expand(opts: &StudyOptions, base: &RunConfig) -> Vec<RunDraft> {
                         "model.render.cos_anneal_end",
                         scale(base.model.render.cos_anneal_end),
                     ),
-                    set("train.lr.constant_steps", scale(base.train.lr.constant_steps)),
+                    set(
+                        "train.lr.constant_steps",
+                        scale(base.train.lr.constant_steps),
+                    ),
                     set("train.lr.warmup_steps", scale(base.train.lr.warmup_steps)),
                     set("mesh.fine_res", (base.mesh.fine_res / 2).max(2)),
                 ],

@@ -158,6 +158,9 @@ mod tests {
         assert_eq!(shell_quote("a b"), "'a b'");
         assert_eq!(shell_quote("it's"), r"'it'\''s'");
         assert_eq!(shell_quote(""), "''");
-        assert_eq!(shell_quote("model.render.x=[1, 2]"), "'model.render.x=[1, 2]'");
+        assert_eq!(
+            shell_quote("model.render.x=[1, 2]"),
+            "'model.render.x=[1, 2]'"
+        );
     }
 }

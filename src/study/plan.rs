@@ -72,7 +72,9 @@ pub struct StudyPlan {
 /// removed (a run folder may be reached by different paths), serialised with sorted keys.
 pub fn config_hash_of_toml(text: &str, origin: &Path) -> Result<String, StudyError> {
     let t = normalised_table(text, origin)?;
-    Ok(fnv_hex(toml::to_string(&t).expect("tables serialise").as_bytes()))
+    Ok(fnv_hex(
+        toml::to_string(&t).expect("tables serialise").as_bytes(),
+    ))
 }
 
 fn normalised_table(text: &str, origin: &Path) -> Result<toml::Table, StudyError> {
@@ -477,7 +479,9 @@ pub fn open_folder(
 /// Whether this grid's rows are conditions other than a single `full`.
 pub fn is_single_condition(plan: &StudyPlan) -> bool {
     let first = plan.runs.first().map(|r| r.condition.as_str());
-    plan.runs.iter().all(|r| Some(r.condition.as_str()) == first)
+    plan.runs
+        .iter()
+        .all(|r| Some(r.condition.as_str()) == first)
 }
 
 /// Whether the plan is a pareto sweep.
@@ -523,7 +527,10 @@ mod tests {
         let (p4, _) = make_plan(&o3, None, tmp.path()).unwrap();
         let d = p1.differences(&p4, 10);
         assert!(d.iter().any(|l| l.contains("--set")), "{d:?}");
-        assert!(d.iter().any(|l| l.contains("resolved configuration")), "{d:?}");
+        assert!(
+            d.iter().any(|l| l.contains("resolved configuration")),
+            "{d:?}"
+        );
     }
 
     #[test]

@@ -118,7 +118,10 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
                 .filter_map(|(g, row)| {
                     let (m, _) = (*row.get(k)?)?;
                     let x0 = g as f64 - 0.4 + k as f64 * w;
-                    Some(Rectangle::new([(x0 + 0.05 * w, 0.0), (x0 + 0.95 * w, m)], c.filled()))
+                    Some(Rectangle::new(
+                        [(x0 + 0.05 * w, 0.0), (x0 + 0.95 * w, m)],
+                        c.filled(),
+                    ))
                 })
                 .collect();
             chart
@@ -132,9 +135,18 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
                     if *e > 0.0 {
                         let x = g as f64 - 0.4 + (k as f64 + 0.5) * w;
                         let cap = 0.2 * w;
-                        whiskers.push(PathElement::new(vec![(x, m - e), (x, m + e)], BLACK.stroke_width(1)));
-                        whiskers.push(PathElement::new(vec![(x - cap, m + e), (x + cap, m + e)], BLACK.stroke_width(1)));
-                        whiskers.push(PathElement::new(vec![(x - cap, m - e), (x + cap, m - e)], BLACK.stroke_width(1)));
+                        whiskers.push(PathElement::new(
+                            vec![(x, m - e), (x, m + e)],
+                            BLACK.stroke_width(1),
+                        ));
+                        whiskers.push(PathElement::new(
+                            vec![(x - cap, m + e), (x + cap, m + e)],
+                            BLACK.stroke_width(1),
+                        ));
+                        whiskers.push(PathElement::new(
+                            vec![(x - cap, m - e), (x + cap, m - e)],
+                            BLACK.stroke_width(1),
+                        ));
                     }
                 }
             }
@@ -149,12 +161,12 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
             .draw()
             .map_err(s)?;
         // Group names under the axis, centred on their groups.
-        let style = TextStyle::from((FONT, 14).into_font())
-            .color(&BLACK)
-            .pos(plotters::style::text_anchor::Pos::new(
+        let style = TextStyle::from((FONT, 14).into_font()).color(&BLACK).pos(
+            plotters::style::text_anchor::Pos::new(
                 plotters::style::text_anchor::HPos::Center,
                 plotters::style::text_anchor::VPos::Top,
-            ));
+            ),
+        );
         for (g, label) in b.groups.iter().enumerate() {
             let (px, py) = chart.backend_coord(&(g as f64, 0.0));
             root.draw(&Text::new(label.as_str(), (px, py + 8), style.clone()))
@@ -164,12 +176,15 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
     })
 }
 
-/// Lines with points and error bars: `series[i] = (name, [(x, mean, half-height)])`.
+/// One line: its name and `(x, mean, half-height of the error bar)` points.
+pub type Series = (String, Vec<(f64, f64, f64)>);
+
+/// Lines with points and error bars.
 pub struct Lines {
     pub title: String,
     pub x_label: String,
     pub y_label: String,
-    pub series: Vec<(String, Vec<(f64, f64, f64)>)>,
+    pub series: Vec<Series>,
 }
 
 /// A line chart (PNG bytes).
@@ -205,12 +220,20 @@ pub fn line_chart(name: &str, l: &Lines) -> Result<Vec<u8>, StudyError> {
         for (k, (name, p)) in l.series.iter().enumerate() {
             let c = colour(k);
             chart
-                .draw_series(LineSeries::new(p.iter().map(|&(x, m, _)| (x, m)), c.stroke_width(2)))
+                .draw_series(LineSeries::new(
+                    p.iter().map(|&(x, m, _)| (x, m)),
+                    c.stroke_width(2),
+                ))
                 .map_err(s)?
                 .label(name.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2))
+                });
             chart
-                .draw_series(p.iter().map(|&(x, m, _)| Circle::new((x, m), 4, c.filled())))
+                .draw_series(
+                    p.iter()
+                        .map(|&(x, m, _)| Circle::new((x, m), 4, c.filled())),
+                )
                 .map_err(s)?;
             let bars: Vec<PathElement<(f64, f64)>> = p
                 .iter()
@@ -291,11 +314,17 @@ pub fn pareto_chart(title: &str, pts: &[ParetoPoint]) -> Result<Vec<u8>, StudyEr
             .draw_series(LineSeries::new(stair, grey.stroke_width(2)))
             .map_err(s)?
             .label("Pareto front")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], grey.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], grey.stroke_width(2))
+            });
         let blue = colour(0);
         let red = colour(3);
         chart
-            .draw_series(pts.iter().filter(|p| !p.preset).map(|p| Circle::new((p.time, p.chamfer), 5, blue.filled())))
+            .draw_series(
+                pts.iter()
+                    .filter(|p| !p.preset)
+                    .map(|p| Circle::new((p.time, p.chamfer), 5, blue.filled())),
+            )
             .map_err(s)?
             .label("one factor changed")
             .legend(move |(x, y)| Circle::new((x + 8, y), 5, blue.filled()));
@@ -308,11 +337,39 @@ pub fn pareto_chart(title: &str, pts: &[ParetoPoint]) -> Result<Vec<u8>, StudyEr
             .map_err(s)?
             .label("preset")
             .legend(move |(x, y)| TriangleMarker::new((x + 8, y), 7, red.filled()));
+        // Labels beside their points, moved to the first free side when they would overlap an
+        // earlier label (a greedy placement; good enough for a dozen points).
         let text = TextStyle::from((FONT, 13).into_font()).color(&BLACK);
+        let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
         for p in pts {
             let (px, py) = chart.backend_coord(&(p.time, p.chamfer));
-            root.draw(&Text::new(p.label.as_str(), (px + 9, py - 16), text.clone()))
-                .map_err(s)?;
+            let w = 7 * p.label.chars().count() as i32;
+            let h = 14;
+            let candidates = [
+                (9, -17),
+                (9, 3),
+                (-w - 9, -17),
+                (-w - 9, 3),
+                (9, -31),
+                (9, 17),
+            ];
+            let free = |(dx, dy): (i32, i32)| {
+                let (x, y) = (px + dx, py + dy);
+                !placed
+                    .iter()
+                    .any(|&(a, b, c, d)| x < a + c && a < x + w && y < b + d && b < y + h)
+            };
+            let (dx, dy) = candidates
+                .into_iter()
+                .find(|&c| free(c))
+                .unwrap_or(candidates[0]);
+            placed.push((px + dx, py + dy, w, h));
+            root.draw(&Text::new(
+                p.label.as_str(),
+                (px + dx, py + dy),
+                text.clone(),
+            ))
+            .map_err(s)?;
         }
         chart
             .configure_series_labels()
@@ -341,7 +398,10 @@ mod tests {
             y_label: "mm".into(),
             groups: vec!["blob".into(), "torus".into()],
             series: vec!["baseline".into(), "SIA".into()],
-            values: vec![vec![Some((v, 0.1)), Some((1.0, 0.0))], vec![None, Some((2.0, 0.3))]],
+            values: vec![
+                vec![Some((v, 0.1)), Some((1.0, 0.0))],
+                vec![None, Some((2.0, 0.3))],
+            ],
         };
         let a = bar_chart("a.png", &b(1.5)).unwrap();
         assert_eq!(a, bar_chart("a.png", &b(1.5)).unwrap(), "deterministic");
@@ -372,14 +432,35 @@ mod tests {
         };
         decode(&line_chart("l.png", &l).unwrap());
         let pts = vec![
-            ParetoPoint { time: 100.0, chamfer: 3.0, label: "iterations=250".into(), preset: false, on_front: true },
-            ParetoPoint { time: 800.0, chamfer: 1.5, label: "fast (preset)".into(), preset: true, on_front: true },
-            ParetoPoint { time: 900.0, chamfer: 2.0, label: "samples=128".into(), preset: false, on_front: false },
+            ParetoPoint {
+                time: 100.0,
+                chamfer: 3.0,
+                label: "iterations=250".into(),
+                preset: false,
+                on_front: true,
+            },
+            ParetoPoint {
+                time: 800.0,
+                chamfer: 1.5,
+                label: "fast (preset)".into(),
+                preset: true,
+                on_front: true,
+            },
+            ParetoPoint {
+                time: 900.0,
+                chamfer: 2.0,
+                label: "samples=128".into(),
+                preset: false,
+                on_front: false,
+            },
         ];
         let p = pareto_chart("p", &pts).unwrap();
         let img = decode(&p);
         let red = colour(3);
-        assert!(img.pixels().any(|q| q.0 == [red.0, red.1, red.2]), "preset marker drawn");
+        assert!(
+            img.pixels().any(|q| q.0 == [red.0, red.1, red.2]),
+            "preset marker drawn"
+        );
         // Degenerate input still draws (empty data).
         pareto_chart("e", &[]).unwrap();
     }

@@ -147,9 +147,8 @@ pub fn execute(
             quiet: opts.quiet,
             stop_after: None,
         };
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            reconstruct::run(cfg, &ro)
-        }));
+        let result =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| reconstruct::run(cfg, &ro)));
         let secs = t.elapsed().as_secs_f64();
         match result {
             Ok(Ok(m)) => {
@@ -178,7 +177,9 @@ pub fn execute(
                     .unwrap_or_else(|| "panic".into());
                 log(dir, &format!("failed {}: panic: {msg}", spec.id))?;
                 eprintln!("{tag}: FAILED (panic): {msg}");
-                summary.failed.push((spec.id.clone(), format!("panic: {msg}")));
+                summary
+                    .failed
+                    .push((spec.id.clone(), format!("panic: {msg}")));
             }
         }
     }
@@ -236,4 +237,3 @@ pub fn emit_jobs(
     open_folder(dir, plan, cfgs, base_src)?;
     super::jobs::emit(dir, plan)
 }
-

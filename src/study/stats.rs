@@ -32,9 +32,8 @@ pub fn mean(x: &[f64]) -> Option<f64> {
 /// Sample standard deviation (`n − 1` in the denominator); `None` below two values.
 pub fn sample_std(x: &[f64]) -> Option<f64> {
     let m = mean(x)?;
-    (x.len() >= 2).then(|| {
-        (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (x.len() - 1) as f64).sqrt()
-    })
+    (x.len() >= 2)
+        .then(|| (x.iter().map(|v| (v - m) * (v - m)).sum::<f64>() / (x.len() - 1) as f64).sqrt())
 }
 
 /// The `q`-quantile of sorted values, type-7 (linear interpolation between order statistics,
@@ -67,7 +66,12 @@ pub fn stream_seed(label: &str) -> u64 {
 /// Stratified percentile bootstrap of the mean over all values of `strata` (each inner slice is
 /// one stratum, resampled with replacement at its own size), `resamples` times, seeded with
 /// `seed`; the `level` interval (0.95 for 95 %). `None` when there is no value.
-pub fn bootstrap_mean_ci(strata: &[Vec<f64>], resamples: usize, seed: u64, level: f64) -> Option<Ci> {
+pub fn bootstrap_mean_ci(
+    strata: &[Vec<f64>],
+    resamples: usize,
+    seed: u64,
+    level: f64,
+) -> Option<Ci> {
     let strata: Vec<&Vec<f64>> = strata.iter().filter(|s| !s.is_empty()).collect();
     let n: usize = strata.iter().map(|s| s.len()).sum();
     if n == 0 {
@@ -111,7 +115,9 @@ mod tests {
         assert_eq!(mean(&[]), None);
         assert_eq!(mean(&[1.0, 2.0, 6.0]), Some(3.0));
         assert_eq!(sample_std(&[5.0]), None);
-        assert!((sample_std(&[1.0, 2.0, 3.0, 4.0]).unwrap() - 1.290_994_448_735_805_6).abs() < 1e-15);
+        assert!(
+            (sample_std(&[1.0, 2.0, 3.0, 4.0]).unwrap() - 1.290_994_448_735_805_6).abs() < 1e-15
+        );
         let s = [1.0, 2.0, 3.0, 4.0, 5.0];
         assert_eq!(quantile_sorted(&s, 0.0), 1.0);
         assert_eq!(quantile_sorted(&s, 1.0), 5.0);
@@ -143,11 +149,21 @@ mod tests {
         let ci = paired_ci("normal", std::slice::from_ref(&x)).unwrap();
         let se = sample_std(&x).unwrap() / 20.0;
         assert!(ci.lo < ci.mean && ci.mean < ci.hi, "{ci:?}");
-        assert!((ci.lo - 0.3).abs() < 0.2 && ci.lo < 0.3 + 0.05 && ci.hi > 0.3 - 0.05, "{ci:?}");
+        assert!(
+            (ci.lo - 0.3).abs() < 0.2 && ci.lo < 0.3 + 0.05 && ci.hi > 0.3 - 0.05,
+            "{ci:?}"
+        );
         let half = 0.5 * (ci.hi - ci.lo);
-        assert!((half / (1.96 * se) - 1.0).abs() < 0.1, "half-width {half} vs {}", 1.96 * se);
+        assert!(
+            (half / (1.96 * se) - 1.0).abs() < 0.1,
+            "half-width {half} vs {}",
+            1.96 * se
+        );
         // Symmetric around the mean to within Monte Carlo noise.
-        assert!(((ci.hi - ci.mean) - (ci.mean - ci.lo)).abs() < 0.02, "{ci:?}");
+        assert!(
+            ((ci.hi - ci.mean) - (ci.mean - ci.lo)).abs() < 0.02,
+            "{ci:?}"
+        );
     }
 
     /// The exact bootstrap distribution of the mean of n = 4 values enumerates all 4⁴ = 256
@@ -167,15 +183,26 @@ mod tests {
             }
         }
         let cdf = |v: f64, strict: bool| {
-            exact.iter().filter(|&&m| if strict { m < v } else { m <= v }).count() as f64
+            exact
+                .iter()
+                .filter(|&&m| if strict { m < v } else { m <= v })
+                .count() as f64
                 / exact.len() as f64
         };
         let ci = bootstrap_mean_ci(&[x.to_vec()], 40_000, 11, 0.95).unwrap();
         assert_eq!(ci.mean, 3.5);
         // P(mean < lo) ≤ 2.5 % ≤ P(mean ≤ lo), within tolerance; likewise at the top.
         let tol = 0.006;
-        assert!(cdf(ci.lo, true) <= 0.025 + tol && cdf(ci.lo, false) >= 0.025 - tol, "lo {}", ci.lo);
-        assert!(cdf(ci.hi, true) <= 0.975 + tol && cdf(ci.hi, false) >= 0.975 - tol, "hi {}", ci.hi);
+        assert!(
+            cdf(ci.lo, true) <= 0.025 + tol && cdf(ci.lo, false) >= 0.025 - tol,
+            "lo {}",
+            ci.lo
+        );
+        assert!(
+            cdf(ci.hi, true) <= 0.975 + tol && cdf(ci.hi, false) >= 0.975 - tol,
+            "hi {}",
+            ci.hi
+        );
     }
 
     #[test]
