@@ -509,6 +509,8 @@ fn collect_on_known_numbers_gives_the_expected_tables() {
         "| mean | +0.200 [+0.200, +0.200] (n=6) | −0.100 [−0.100, −0.100] (n=6) |",
         "| blob | 0.100 | 0.100 | 0.100 |",
         "| blob | 0.840 / 1.260 |",
+        "| DIA | +0.00 (+0.0 %) | +0.200 [+0.200, +0.200] (n=6) (+7.7 %) | disagrees: here the arm is worse",
+        "| SIA | −0.12 (−5.9 %) | −0.100 [−0.100, −0.100] (n=6) (−3.8 %) | agrees: same direction",
     ] {
         assert!(md.contains(s), "report lacks {s:?}:\n{md}");
     }
