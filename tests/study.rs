@@ -607,3 +607,72 @@ fn pareto_and_reduced_reports_from_known_numbers() {
     );
     assert!(to.join("chamfer_vs_views.png").is_file());
 }
+
+#[test]
+fn pareto_mesh_variants_reuse_the_centre_training() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path());
+    let dir = tmp.path().join("pareto");
+    let pareto = |flag: &str| {
+        let mut c = neus_aug();
+        c.args(["study", "pareto", "--scenes"])
+            .arg(tiny_scene())
+            .arg("--config")
+            .arg(&cfg)
+            .arg(flag)
+            .arg(&dir)
+            .arg("--quiet");
+        c.output().unwrap()
+    };
+    // The job list first: every line (with the reuse prefix) is valid shell.
+    ok(&pareto("--emit-jobs"));
+    let st = Command::new("bash")
+        .arg("-n")
+        .arg(dir.join("jobs.txt"))
+        .status()
+        .unwrap();
+    assert!(st.success(), "jobs.txt does not parse");
+    let jobs = std::fs::read_to_string(dir.join("jobs.txt")).unwrap();
+    assert_eq!(jobs.lines().count(), 11);
+    assert_eq!(
+        jobs.lines()
+            .filter(|l| l.contains("cp runs/tiny-centre-s0/checkpoint.safetensors"))
+            .count(),
+        2,
+        "{jobs}"
+    );
+    // Then run it here, in the same folder.
+    ok(&pareto("--out"));
+    let reused = log_lines(&dir, "reuse");
+    assert_eq!(reused, ["tiny-mc16-s0", "tiny-mc64-s0"], "{reused:?}");
+    let plan = StudyPlan::load(&dir).unwrap();
+    let read = |id: &str| -> serde_json::Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(run_dir(&dir, id).join("metrics.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    let centre = read("tiny-centre-s0");
+    for id in &reused {
+        let m = read(id);
+        assert_eq!(m["train"]["resumed_from"], 40, "{id} retrained");
+        assert_eq!(m["config_hash"], centre["config_hash"]);
+        assert_ne!(m["mesh"]["vertices"], centre["mesh"]["vertices"], "{id}");
+    }
+    let csv = std::fs::read_to_string(dir.join("report/pareto.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 12, "{csv}");
+    let t = |v: &str| -> f64 {
+        let l = csv
+            .lines()
+            .find(|l| l.starts_with(&format!("{v},")))
+            .unwrap();
+        l.split(',').nth(6).unwrap().parse().unwrap()
+    };
+    let centre_train = centre["timings_s"]["train"].as_f64().unwrap();
+    assert!(
+        t("mc=16") > centre_train,
+        "a reused training still costs its training time"
+    );
+    assert!(dir.join("report/pareto.png").is_file());
+    assert_eq!(plan.runs.len(), 11);
+}

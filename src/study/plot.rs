@@ -217,11 +217,17 @@ pub fn line_chart(name: &str, l: &Lines) -> Result<Vec<u8>, StudyError> {
             .label_style((FONT, 14))
             .draw()
             .map_err(s)?;
+        // Series are nudged sideways by a small fraction of the x range so their error bars do
+        // not hide each other.
+        let ns = l.series.len().max(1) as f64;
+        let dodge = |k: usize| (k as f64 - (ns - 1.0) / 2.0) * 0.012 * (x1 - x0 + 2.0 * pad);
+        let cap = 0.006 * (x1 - x0 + 2.0 * pad);
         for (k, (name, p)) in l.series.iter().enumerate() {
             let c = colour(k);
+            let dx = dodge(k);
             chart
                 .draw_series(LineSeries::new(
-                    p.iter().map(|&(x, m, _)| (x, m)),
+                    p.iter().map(|&(x, m, _)| (x + dx, m)),
                     c.stroke_width(2),
                 ))
                 .map_err(s)?
@@ -232,14 +238,23 @@ pub fn line_chart(name: &str, l: &Lines) -> Result<Vec<u8>, StudyError> {
             chart
                 .draw_series(
                     p.iter()
-                        .map(|&(x, m, _)| Circle::new((x, m), 4, c.filled())),
+                        .map(|&(x, m, _)| Circle::new((x + dx, m), 4, c.filled())),
                 )
                 .map_err(s)?;
-            let bars: Vec<PathElement<(f64, f64)>> = p
-                .iter()
-                .filter(|(_, _, e)| *e > 0.0)
-                .map(|&(x, m, e)| PathElement::new(vec![(x, m - e), (x, m + e)], c.stroke_width(1)))
-                .collect();
+            let mut bars: Vec<PathElement<(f64, f64)>> = Vec::new();
+            for &(x, m, e) in p.iter().filter(|(_, _, e)| *e > 0.0) {
+                let x = x + dx;
+                bars.push(PathElement::new(
+                    vec![(x, m - e), (x, m + e)],
+                    c.stroke_width(1),
+                ));
+                for y in [m - e, m + e] {
+                    bars.push(PathElement::new(
+                        vec![(x - cap, y), (x + cap, y)],
+                        c.stroke_width(1),
+                    ));
+                }
+            }
             chart.draw_series(bars).map_err(s)?;
         }
         chart
