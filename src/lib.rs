@@ -10,4 +10,5 @@ pub mod mesh;
 pub mod reconstruct;
 pub mod render;
 pub mod scene;
+pub mod study;
 pub mod train;

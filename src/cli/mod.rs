@@ -7,6 +7,7 @@ mod eval;
 mod inspect;
 mod mcubes;
 mod reconstruct;
+mod study;
 mod synth;
 
 /// NeuS surface reconstruction on the CPU with colour-only image augmentations.
@@ -27,6 +28,9 @@ pub enum Command {
     Inspect(inspect::InspectArgs),
     /// Render a synthetic scene into the DTU layout with its ground truth.
     Synth(synth::SynthArgs),
+    /// The paper's experiment grids (table2, reduced, degraded, pareto, ...) with seeds,
+    /// statistics and plots; `study collect DIR` aggregates a study folder.
+    Study(Box<study::StudyArgs>),
     /// Show the augmentations: a contact sheet of one view, or one manipulation/degradation
     /// applied to one image (--apply KIND:v IN.png OUT.png).
     Augment(augment::AugmentArgs),
@@ -41,6 +45,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(args) => eval::run(&args),
         Command::Inspect(args) => inspect::run(args),
         Command::Synth(args) => synth::run(args),
+        Command::Study(args) => study::run(*args),
         Command::Augment(args) => augment::run(args),
         Command::Mcubes(args) => mcubes::run(args),
     }

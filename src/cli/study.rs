@@ -1,0 +1,179 @@
+//! `neus-aug study GRID` and `neus-aug study collect DIR`.
+
+use anyhow::Context;
+use neus_aug::augment::AugMode;
+use neus_aug::reconstruct::Preset;
+use neus_aug::study::{self, collect, grid, jobs, plan, Grid, StudyOptions};
+use std::path::PathBuf;
+
+/// Run one of the paper's experiment grids on the built-in scenes (each run a `reconstruct`
+/// with its own folder; finished runs are skipped, interrupted ones resume), or aggregate a
+/// study folder into tables and plots.
+///
+/// Grids: table2 (baseline/DIA/SIA on every scene), reduced (IA off/on × 10/25/50/75 % of the
+/// views), degraded and degraded-mild (IA off/on × five degradations), pareto (Chamfer against
+/// time, one factor at a time), smoke (a quick check). Examples:
+///
+///   neus-aug study table2 --out studies/table2        (runs, resumable; then writes report/)
+///   neus-aug study collect studies/table2             (tables and plots from what exists)
+///   neus-aug study reduced --emit-jobs studies/red    (jobs.txt, slurm.sbatch, parallel.sh)
+#[derive(Debug, clap::Args)]
+#[command(verbatim_doc_comment)]
+pub struct StudyArgs {
+    /// A grid (table2, reduced, degraded, degraded-mild, pareto, smoke), `collect`, or `list`.
+    pub grid: String,
+    /// For `collect`: the study folder.
+    pub dir: Option<PathBuf>,
+    /// Scenes, comma-separated: built-in names, `all`, folders or DTU scans (default: every
+    /// built-in scene for table2, the default scene otherwise).
+    #[arg(long)]
+    pub scenes: Option<String>,
+    /// Seeds per cell, 0..N (default: 3; pareto 1; smoke 2).
+    #[arg(long)]
+    pub seeds: Option<u32>,
+    /// Preset every run starts from.
+    #[arg(long, value_enum, default_value = "fast")]
+    pub preset: Preset,
+    /// The augmentation of the "IA on" arm (reduced, degraded, degraded-mild).
+    #[arg(long, value_enum, default_value = "sia")]
+    pub ia: AugMode,
+    /// A TOML config applied to every run after the preset (copied into the study folder).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Set a config field of every run (repeatable), e.g. `--set train.iterations=500`.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// The study folder (default `studies/<grid>-<preset>`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Print the plan (runs and their command lines) and exit.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// Plan the study in DIR and write jobs.txt, slurm.sbatch and parallel.sh instead of running.
+    #[arg(long, value_name = "DIR")]
+    pub emit_jobs: Option<PathBuf>,
+    /// For `collect`: write the report here instead of DIR/report.
+    #[arg(long)]
+    pub to: Option<PathBuf>,
+    /// Where DTU scans live (to recognise `--scenes scan24`).
+    #[arg(long, env = "NEUS_AUG_DATA", default_value = "data/dtu")]
+    pub data_root: PathBuf,
+    /// No progress output from the runs.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+pub fn run(args: StudyArgs) -> anyhow::Result<()> {
+    match args.grid.as_str() {
+        "collect" => return run_collect(&args),
+        "list" => {
+            for g in Grid::ALL {
+                println!("{:<14} {}", g.name(), g.summary());
+            }
+            return Ok(());
+        }
+        _ => {}
+    }
+    let g: Grid = args.grid.parse()?;
+    if let Some(d) = &args.dir {
+        anyhow::bail!(
+            "unexpected argument {} (only `collect` takes a folder; use --out DIR)",
+            d.display()
+        );
+    }
+    let mut opts = StudyOptions::new(g);
+    if let Some(list) = &args.scenes {
+        opts.scenes = grid::parse_scenes(list, &args.data_root)?;
+    }
+    if let Some(n) = args.seeds {
+        opts.seeds = n;
+    }
+    opts.preset = args.preset;
+    opts.ia = args.ia;
+    opts.sets = args.set.clone();
+    opts.base_config = args.config.is_some();
+    if let Some(c) = &args.config {
+        anyhow::ensure!(c.is_file(), "--config {}: no such file", c.display());
+    }
+    let dir = match (&args.out, &args.emit_jobs) {
+        (Some(o), Some(e)) if o != e => {
+            anyhow::bail!(
+                "--out {} and --emit-jobs {} name different folders; give one",
+                o.display(),
+                e.display()
+            )
+        }
+        (_, Some(e)) => e.clone(),
+        (Some(o), None) => o.clone(),
+        (None, None) => {
+            PathBuf::from("studies").join(format!("{}-{}", g.name(), opts.preset.name()))
+        }
+    };
+    let (plan, cfgs) = plan::make_plan(&opts, args.config.as_deref(), &dir)?;
+    if args.dry_run {
+        println!(
+            "# study {} → {} ({} runs); each line as run from the study folder",
+            g,
+            dir.display(),
+            plan.runs.len()
+        );
+        for r in &plan.runs {
+            println!(
+                "{:<40} {}",
+                r.id,
+                jobs::reconstruct_args(r, &plan.options)
+                    .iter()
+                    .map(|a| jobs::shell_quote(a))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+        }
+        return Ok(());
+    }
+    if args.emit_jobs.is_some() {
+        let e = study::run::emit_jobs(&dir, &plan, &cfgs, args.config.as_deref())?;
+        println!(
+            "wrote {} jobs to {}\n  Slurm:        cd {} && sbatch slurm.sbatch\n  GNU parallel: bash {} [JOBS]\n  then:         neus-aug study collect {}",
+            e.count,
+            e.jobs.display(),
+            dir.display(),
+            e.parallel.display(),
+            dir.display()
+        );
+        return Ok(());
+    }
+    study::execute(
+        &dir,
+        &plan,
+        &cfgs,
+        args.config.as_deref(),
+        &study::ExecOptions { quiet: args.quiet },
+    )
+    .with_context(|| format!("study {} in {}", g, dir.display()))?;
+    Ok(())
+}
+
+fn run_collect(args: &StudyArgs) -> anyhow::Result<()> {
+    let dir = args
+        .dir
+        .as_ref()
+        .context("usage: neus-aug study collect DIR")?;
+    let to = args
+        .to
+        .clone()
+        .unwrap_or_else(|| dir.join(collect::REPORT_DIR));
+    let c = study::collect(dir, &to).with_context(|| format!("collect {}", dir.display()))?;
+    println!(
+        "collected {} of {} runs from {} into {}{}",
+        c.collected,
+        c.planned,
+        dir.display(),
+        to.display(),
+        if c.missing.is_empty() {
+            String::new()
+        } else {
+            format!(" ({} not finished)", c.missing.len())
+        }
+    );
+    Ok(())
+}

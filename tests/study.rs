@@ -1,0 +1,678 @@
+//! `neus-aug study` end to end on a tiny scene: a grid killed midway resumes and runs each run
+//! exactly once; `study collect` regenerates the report bit for bit; job lines for a cluster
+//! produce the planned run folders; bad input (an unknown grid, a folder of another
+//! configuration, a tampered run) is refused with a clear message. Plus the collector on
+//! fabricated results with known statistics (no training).
+
+use neus_aug::augment::AugMode;
+use neus_aug::reconstruct::Preset;
+use neus_aug::scene::sim;
+use neus_aug::study::plan::{make_plan, run_dir, run_state, RunState, StudyPlan};
+use neus_aug::study::{collect, Grid, StudyOptions};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+/// A tiny built-in-like scene (8 views at 48×36, coarse ground truth), generated once.
+fn tiny_scene() -> &'static Path {
+    static SCENE: OnceLock<PathBuf> = OnceLock::new();
+    SCENE.get_or_init(|| {
+        let mut desc = sim::builtin("blob").unwrap();
+        desc.rig.views = 8;
+        desc.rig.resolution = [48, 36];
+        desc.render.spp = 1;
+        desc.gt.spacing_mm = 1.0;
+        desc.gt.obs_res_mm = 4.0;
+        let root = tempfile::tempdir().unwrap().keep();
+        let dir = root.join("tiny");
+        sim::generate(&desc, &dir, &Default::default()).unwrap();
+        dir
+    })
+}
+
+/// A few dozen steps of a tiny network, a coarse mesh.
+const TINY: &str = r#"
+preset = "fast"
+[data]
+holdout = 1
+render_downscale = 2
+[train]
+iterations = 40
+checkpoint_every = 4
+[train.lr]
+warmup_steps = 0
+constant_steps = 20
+[model.field.hash_grid]
+n_levels = 6
+log2_hashmap_size = 12
+base_resolution = 8.0
+per_level_scale = 1.5
+[model.render]
+num_samples_per_ray = 64
+train_num_rays = 64
+max_train_num_rays = 256
+shards = 2
+cos_anneal_end = 40
+[model.render.occupancy]
+resolution = 16
+[mesh]
+coarse_res = 24
+fine_res = 32
+"#;
+
+fn write_config(dir: &Path) -> PathBuf {
+    let p = dir.join("tiny.toml");
+    std::fs::write(&p, TINY).unwrap();
+    p
+}
+
+fn neus_aug() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_neus-aug"));
+    c.env("RAYON_NUM_THREADS", "2");
+    c
+}
+
+/// `neus-aug study table2` on the tiny scene.
+fn study_cmd(cfg: &Path, seeds: u32, folder_flag: &str, dir: &Path) -> Command {
+    let mut c = neus_aug();
+    c.arg("study")
+        .arg("table2")
+        .arg("--scenes")
+        .arg(tiny_scene())
+        .args(["--seeds", &seeds.to_string(), "--config"])
+        .arg(cfg)
+        .arg(folder_flag)
+        .arg(dir)
+        .arg("--quiet");
+    c
+}
+
+fn ok(o: &Output) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(
+        o.status.success(),
+        "command failed:\n{}\n{err}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    err
+}
+
+fn fails(o: &Output) -> String {
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(
+        !o.status.success(),
+        "expected a failure, got success:\n{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+/// Every file under `dir` (relative path → bytes).
+fn tree(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut m = BTreeMap::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        m.insert(
+            p.strip_prefix(dir).unwrap().to_path_buf(),
+            std::fs::read(&p).unwrap(),
+        );
+    }
+    m
+}
+
+fn run_folders(dir: &Path) -> Vec<PathBuf> {
+    let runs = dir.join("runs");
+    if !runs.is_dir() {
+        return vec![];
+    }
+    let mut v: Vec<PathBuf> = std::fs::read_dir(runs)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    v.sort();
+    v
+}
+
+fn log_lines(dir: &Path, verb: &str) -> Vec<String> {
+    std::fs::read_to_string(dir.join("study.log"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| {
+            let mut w = l.split_whitespace().skip(1);
+            (w.next() == Some(verb)).then(|| w.next().unwrap().to_string())
+        })
+        .collect()
+}
+
+#[test]
+fn a_killed_grid_resumes_runs_each_run_once_and_collects_bit_for_bit() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path());
+    let dir = tmp.path().join("study");
+    // 3 arms × 2 seeds = 6 runs. Kill once a run has finished and another is mid-training.
+    let mut child = study_cmd(&cfg, 2, "--out", &dir)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    loop {
+        let f = run_folders(&dir);
+        let done = f.iter().filter(|p| p.join("metrics.json").exists()).count();
+        let partial = f
+            .iter()
+            .filter(|p| {
+                p.join("checkpoint.safetensors").exists() && !p.join("metrics.json").exists()
+            })
+            .count();
+        if done >= 1 && partial >= 1 {
+            break;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(240),
+            "no finished + unfinished pair appeared"
+        );
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the study ended ({status}) before it could be killed");
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    child.kill().unwrap(); // SIGKILL: the study and its current run stop together.
+    child.wait().unwrap();
+    let folders = run_folders(&dir);
+    let finished: BTreeMap<PathBuf, (Vec<u8>, std::time::SystemTime)> = folders
+        .iter()
+        .filter(|p| p.join("metrics.json").exists())
+        .map(|p| {
+            let m = p.join("metrics.json");
+            (
+                p.clone(),
+                (
+                    std::fs::read(&m).unwrap(),
+                    std::fs::metadata(&m).unwrap().modified().unwrap(),
+                ),
+            )
+        })
+        .collect();
+    let interrupted: Vec<PathBuf> = folders
+        .iter()
+        .filter(|p| p.join("checkpoint.safetensors").exists() && !p.join("metrics.json").exists())
+        .cloned()
+        .collect();
+    assert!(
+        finished.len() < 6 && !interrupted.is_empty(),
+        "killed too late to prove anything: {} finished",
+        finished.len()
+    );
+    assert!(
+        !dir.join("report").exists(),
+        "no report before the grid ends"
+    );
+
+    // Resume: the same command finishes the grid.
+    ok(&study_cmd(&cfg, 2, "--out", &dir).output().unwrap());
+    let plan = StudyPlan::load(&dir).unwrap();
+    assert_eq!(plan.runs.len(), 6);
+    let done = log_lines(&dir, "done");
+    for r in &plan.runs {
+        assert_eq!(
+            done.iter().filter(|d| **d == r.id).count(),
+            1,
+            "run {} finished {} times: {done:?}",
+            r.id,
+            done.iter().filter(|d| **d == r.id).count()
+        );
+        assert_eq!(run_state(&dir, r, None).unwrap(), RunState::Done);
+    }
+    for (p, (bytes, mtime)) in &finished {
+        let m = p.join("metrics.json");
+        assert_eq!(
+            &std::fs::read(&m).unwrap(),
+            bytes,
+            "{} was redone",
+            p.display()
+        );
+        assert_eq!(&std::fs::metadata(&m).unwrap().modified().unwrap(), mtime);
+    }
+    for p in &interrupted {
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p.join("metrics.json")).unwrap())
+                .unwrap();
+        assert!(
+            m["train"]["resumed_from"].as_u64().is_some(),
+            "{} did not resume from its checkpoint: {}",
+            p.display(),
+            m["train"]
+        );
+    }
+
+    // The report written at the end equals `study collect`, twice, bit for bit.
+    let report = tree(&dir.join("report"));
+    for name in [
+        "report.md",
+        "runs.csv",
+        "runs.json",
+        "summary.json",
+        "chamfer.png",
+    ] {
+        assert!(report.contains_key(Path::new(name)), "{name} missing");
+    }
+    for again in ["again1", "again2"] {
+        let to = tmp.path().join(again);
+        let out = neus_aug()
+            .args(["study", "collect"])
+            .arg(&dir)
+            .arg("--to")
+            .arg(&to)
+            .output()
+            .unwrap();
+        ok(&out);
+        assert_eq!(
+            tree(&to),
+            report,
+            "collect into {again} differs from the report"
+        );
+    }
+    let md = String::from_utf8(report[Path::new("report.md")].clone()).unwrap();
+    for s in [
+        "| tiny |",
+        "| scene | baseline | DIA | SIA |",
+        "SIA − baseline",
+        "train time / baseline",
+        "Runs: 6 planned, 6 collected",
+        "| tiny | 2/2 | 2/2 | 2/2 |",
+    ] {
+        assert!(md.contains(s), "report lacks {s:?}:\n{md}");
+    }
+
+    // A third invocation finds everything done and starts nothing.
+    let starts = log_lines(&dir, "start").len();
+    ok(&study_cmd(&cfg, 2, "--out", &dir).output().unwrap());
+    assert_eq!(log_lines(&dir, "start").len(), starts);
+
+    // Other options into the same folder: refused, nothing run or created.
+    let err = fails(&study_cmd(&cfg, 3, "--out", &dir).output().unwrap());
+    assert!(
+        err.contains("planned with other options") && err.contains("seeds: 2 → 3"),
+        "{err}"
+    );
+    assert_eq!(run_folders(&dir).len(), 6);
+
+    // A run folder whose config.toml is not the planned one is never mixed in.
+    let victim = run_dir(&dir, &plan.runs[1].id);
+    let text = std::fs::read_to_string(victim.join("config.toml")).unwrap();
+    let tampered = text.replace("iterations = 40", "iterations = 41");
+    assert_ne!(text, tampered);
+    std::fs::write(victim.join("config.toml"), tampered).unwrap();
+    let err = fails(
+        &neus_aug()
+            .args(["study", "collect"])
+            .arg(&dir)
+            .output()
+            .unwrap(),
+    );
+    assert!(
+        err.contains(&plan.runs[1].id)
+            && err.contains("train.iterations: 41 → 40")
+            && err.contains("another configuration"),
+        "{err}"
+    );
+    let err = fails(&study_cmd(&cfg, 2, "--out", &dir).output().unwrap());
+    assert!(err.contains(&plan.runs[1].id), "{err}");
+}
+
+#[test]
+fn emitted_job_lines_make_the_planned_runs_and_mix_with_local_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path());
+    let dir = tmp.path().join("jobs");
+    let o = study_cmd(&cfg, 1, "--emit-jobs", &dir).output().unwrap();
+    ok(&o);
+    let jobs = std::fs::read_to_string(dir.join("jobs.txt")).unwrap();
+    let lines: Vec<&str> = jobs.lines().collect();
+    assert_eq!(lines.len(), 3, "{jobs}");
+    let slurm = std::fs::read_to_string(dir.join("slurm.sbatch")).unwrap();
+    assert!(slurm.contains("#SBATCH --array=1-3"), "{slurm}");
+    for script in ["slurm.sbatch", "parallel.sh"] {
+        let st = Command::new("bash")
+            .arg("-n")
+            .arg(dir.join(script))
+            .status()
+            .unwrap();
+        assert!(st.success(), "{script} does not parse");
+    }
+    assert!(dir.join("base.toml").is_file() && dir.join("logs").is_dir());
+    assert!(!dir.join("runs").exists(), "emitting jobs runs nothing");
+
+    // One job line, as a cluster node runs it: from the study folder, through bash.
+    let run_line = |line: &str| {
+        Command::new("bash")
+            .arg("-c")
+            .arg(line)
+            .current_dir(&dir)
+            .env("NEUS_AUG", env!("CARGO_BIN_EXE_neus-aug"))
+            .env("RAYON_NUM_THREADS", "2")
+            .output()
+            .unwrap()
+    };
+    ok(&run_line(lines[0]));
+    let plan = StudyPlan::load(&dir).unwrap();
+    let first = &plan.runs[0];
+    assert_eq!(
+        run_state(&dir, first, None).unwrap(),
+        RunState::Done,
+        "the job line made the planned configuration"
+    );
+    let metrics = run_dir(&dir, &first.id).join("metrics.json");
+    let before = std::fs::read(&metrics).unwrap();
+    ok(&run_line(lines[0])); // a finished run is skipped, not redone
+    assert_eq!(std::fs::read(&metrics).unwrap(), before);
+
+    // Collect what exists.
+    let o = neus_aug()
+        .args(["study", "collect"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    ok(&o);
+    let md = std::fs::read_to_string(dir.join("report/report.md")).unwrap();
+    assert!(
+        md.contains("Runs: 3 planned, 1 collected, 2 missing"),
+        "{md}"
+    );
+
+    // The local runner finishes the rest and leaves the cluster's run alone.
+    ok(&study_cmd(&cfg, 1, "--out", &dir).output().unwrap());
+    assert_eq!(std::fs::read(&metrics).unwrap(), before);
+    let started = log_lines(&dir, "start");
+    assert_eq!(started.len(), 2, "{started:?}");
+    assert!(!started.contains(&first.id));
+}
+
+#[test]
+fn unknown_grids_and_foreign_folders_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let err = fails(&neus_aug().args(["study", "table3"]).output().unwrap());
+    for g in [
+        "table3",
+        "table2",
+        "reduced",
+        "degraded",
+        "degraded-mild",
+        "pareto",
+    ] {
+        assert!(err.contains(g), "lacks {g}: {err}");
+    }
+    let err = fails(
+        &neus_aug()
+            .args(["study", "collect"])
+            .arg(tmp.path())
+            .output()
+            .unwrap(),
+    );
+    assert!(err.contains("not a study folder"), "{err}");
+    // A folder with run results but no plan is not adopted.
+    let foreign = tmp.path().join("foreign");
+    std::fs::create_dir_all(foreign.join("runs/x")).unwrap();
+    let err = fails(
+        &neus_aug()
+            .args(["study", "smoke", "--out"])
+            .arg(&foreign)
+            .output()
+            .unwrap(),
+    );
+    assert!(err.contains("no study.toml"), "{err}");
+    let err = fails(
+        &neus_aug()
+            .args(["study", "table2", "--set", "seed=3", "--dry-run"])
+            .output()
+            .unwrap(),
+    );
+    assert!(err.contains("seed=3") && err.contains("per run"), "{err}");
+    let err = fails(
+        &neus_aug()
+            .args(["study", "table2", "--scenes", "blob,nope", "--dry-run"])
+            .output()
+            .unwrap(),
+    );
+    assert!(err.contains("nope") && err.contains("torus"), "{err}");
+}
+
+/// Writes the planned `config.toml` and a fabricated `metrics.json` for every run of `plan`.
+fn fabricate(
+    dir: &Path,
+    plan: &StudyPlan,
+    cfgs: &[neus_aug::reconstruct::RunConfig],
+    chamfer: impl Fn(&neus_aug::study::RunSpec) -> f64,
+    train_time: impl Fn(&neus_aug::study::RunSpec) -> f64,
+) {
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join("study.toml"), plan.to_toml()).unwrap();
+    for (r, c) in plan.runs.iter().zip(cfgs) {
+        let rd = run_dir(dir, &r.id);
+        std::fs::create_dir_all(&rd).unwrap();
+        std::fs::write(rd.join("config.toml"), c.to_toml()).unwrap();
+        let ch = chamfer(r);
+        let reused = r.reuse_training_of.is_some();
+        let m = serde_json::json!({
+            "config_hash": r.training_hash,
+            "chamfer": {"mean_d2s": ch * 0.4, "mean_s2d": ch * 0.6, "overall": ch / 2.0,
+                        "chamfer_sum": ch, "gt_root": "x", "scan": 101},
+            "psnr_heldout": 25.0, "ssim_heldout": 0.9,
+            "train": {"iterations": c.train.iterations,
+                      "resumed_from": if reused { Some(c.train.iterations) } else { None }},
+            "timings_s": {"load": 1.0, "prepare": 0.5,
+                          "train": if reused { 0.0 } else { train_time(r) },
+                          "mesh": 2.0, "eval": 1.0, "render": 1.0, "total": 99.0},
+        });
+        std::fs::write(rd.join("metrics.json"), m.to_string()).unwrap();
+    }
+}
+
+#[test]
+fn collect_on_known_numbers_gives_the_expected_tables() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("t2");
+    let mut o = StudyOptions::new(Grid::Table2);
+    o.scenes = vec!["blob".into(), "torus".into()];
+    o.seeds = 3;
+    let (plan, cfgs) = make_plan(&o, None, &dir).unwrap();
+    // baseline 2 + seed/10 (+1 on torus); SIA exactly 0.1 lower; DIA 0.2 higher; DIA trains 3×.
+    fabricate(
+        &dir,
+        &plan,
+        &cfgs,
+        |r| {
+            let base = 2.0 + r.seed as f64 / 10.0 + if r.scene == "torus" { 1.0 } else { 0.0 };
+            base + match r.arm {
+                AugMode::None => 0.0,
+                AugMode::Sia => -0.1,
+                AugMode::Dia => 0.2,
+            }
+        },
+        |r| if r.arm == AugMode::Dia { 300.0 } else { 100.0 },
+    );
+    let to = tmp.path().join("out");
+    collect(&dir, &to).unwrap();
+    let md = std::fs::read_to_string(to.join("report.md")).unwrap();
+    // blob baseline mean 2.1, DIA 2.3, SIA 2.0 (best, bold), baseline runner-up (italic).
+    for s in [
+        "| blob | *2.100* | 2.300 | **2.000** |",
+        "| torus | *3.100* | 3.300 | **3.000** |",
+        "| mean | *2.600* | 2.800 | **2.500** |",
+        "| train time (s) | 100 | 300 | 100 |",
+        "| train time / baseline | 1.00× | 3.00× | 1.00× |",
+        // A constant paired difference: a zero-width interval at the constant.
+        "| blob | +0.200 [+0.200, +0.200] (n=3) | −0.100 [−0.100, −0.100] (n=3) |",
+        "| mean | +0.200 [+0.200, +0.200] (n=6) | −0.100 [−0.100, −0.100] (n=6) |",
+        "| blob | 0.100 | 0.100 | 0.100 |",
+        "| blob | 0.840 / 1.260 |",
+        "| DIA | +0.00 (+0.0 %) | +0.200 [+0.200, +0.200] (n=6) (+7.7 %) | disagrees: here the arm is worse",
+        "| SIA | −0.12 (−5.9 %) | −0.100 [−0.100, −0.100] (n=6) (−3.8 %) | agrees: same direction",
+    ] {
+        assert!(md.contains(s), "report lacks {s:?}:\n{md}");
+    }
+    let csv = std::fs::read_to_string(to.join("runs.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 18);
+    assert!(csv
+        .lines()
+        .nth(1)
+        .unwrap()
+        .starts_with("blob-baseline-s0,blob,full,baseline,0,fast"));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(to.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["collected"], 18);
+
+    // A metrics.json from another training is refused.
+    let m = run_dir(&dir, &plan.runs[4].id).join("metrics.json");
+    let text = std::fs::read_to_string(&m).unwrap();
+    std::fs::write(
+        &m,
+        text.replace(&plan.runs[4].training_hash, "0123456789abcdef"),
+    )
+    .unwrap();
+    let e = collect(&dir, &to).unwrap_err().to_string();
+    assert!(
+        e.contains(&plan.runs[4].id) && e.contains("0123456789abcdef"),
+        "{e}"
+    );
+}
+
+#[test]
+fn pareto_and_reduced_reports_from_known_numbers() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("pareto");
+    let o = StudyOptions::new(Grid::Pareto);
+    let (plan, cfgs) = make_plan(&o, None, &dir).unwrap();
+    assert_eq!(plan.options.preset, Preset::Fast);
+    // Error falls with iterations and samples; time grows with them.
+    let cost = |c: &neus_aug::reconstruct::RunConfig| {
+        c.train.iterations as f64 * c.model.render.num_samples_per_ray as f64
+            / (c.data.downscale as f64).powi(2)
+            / 1000.0
+    };
+    let by_id: BTreeMap<String, f64> = plan
+        .runs
+        .iter()
+        .zip(&cfgs)
+        .map(|(r, c)| (r.id.clone(), cost(c)))
+        .collect();
+    fabricate(
+        &dir,
+        &plan,
+        &cfgs,
+        |r| 1.0 + 100.0 / by_id[&r.id] + if r.condition == "mc=128" { 0.5 } else { 0.0 },
+        |r| by_id[&r.id],
+    );
+    let to = tmp.path().join("out");
+    collect(&dir, &to).unwrap();
+    let csv = std::fs::read_to_string(to.join("pareto.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 11, "{csv}");
+    let row = |v: &str| {
+        csv.lines()
+            .find(|l| l.starts_with(&format!("{v},")))
+            .unwrap_or_else(|| panic!("no {v} in {csv}"))
+            .to_string()
+    };
+    // The mesh-only variant costs the centre's training: same time to mesh as the centre
+    // (fabricated mesh times are equal), worse error → dominated.
+    assert!(row("mc=128").ends_with(",false"), "{csv}");
+    assert!(row("iterations=250").ends_with(",true"), "{csv}");
+    let centre_t: f64 = row("centre").split(',').nth(6).unwrap().parse().unwrap();
+    let mc_t: f64 = row("mc=128").split(',').nth(6).unwrap().parse().unwrap();
+    assert_eq!(centre_t, mc_t);
+    let png = std::fs::read(to.join("pareto.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let md = std::fs::read_to_string(to.join("report.md")).unwrap();
+    assert!(md.contains("## Accuracy against time"), "{md}");
+
+    let dir = tmp.path().join("reduced");
+    let o = StudyOptions::new(Grid::Reduced);
+    let (plan, cfgs) = make_plan(&o, None, &dir).unwrap();
+    fabricate(
+        &dir,
+        &plan,
+        &cfgs,
+        |r| 3.0 - r.views_fraction.unwrap() - if r.arm == AugMode::Sia { 0.05 } else { 0.0 },
+        |_| 10.0,
+    );
+    collect(&dir, &to).unwrap();
+    let md = std::fs::read_to_string(to.join("report.md")).unwrap();
+    assert!(md.contains("| views 10% | 2.900 | **2.850** |"), "{md}");
+    assert!(
+        md.contains("| all conditions | −0.050 [−0.050, −0.050] (n=12) |"),
+        "{md}"
+    );
+    assert!(to.join("chamfer_vs_views.png").is_file());
+}
+
+#[test]
+fn pareto_mesh_variants_reuse_the_centre_training() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path());
+    let dir = tmp.path().join("pareto");
+    let pareto = |flag: &str| {
+        let mut c = neus_aug();
+        c.args(["study", "pareto", "--scenes"])
+            .arg(tiny_scene())
+            .arg("--config")
+            .arg(&cfg)
+            .arg(flag)
+            .arg(&dir)
+            .arg("--quiet");
+        c.output().unwrap()
+    };
+    // The job list first: every line (with the reuse prefix) is valid shell.
+    ok(&pareto("--emit-jobs"));
+    let st = Command::new("bash")
+        .arg("-n")
+        .arg(dir.join("jobs.txt"))
+        .status()
+        .unwrap();
+    assert!(st.success(), "jobs.txt does not parse");
+    let jobs = std::fs::read_to_string(dir.join("jobs.txt")).unwrap();
+    assert_eq!(jobs.lines().count(), 11);
+    assert_eq!(
+        jobs.lines()
+            .filter(|l| l.contains("cp runs/tiny-centre-s0/checkpoint.safetensors"))
+            .count(),
+        2,
+        "{jobs}"
+    );
+    // Then run it here, in the same folder.
+    ok(&pareto("--out"));
+    let reused = log_lines(&dir, "reuse");
+    assert_eq!(reused, ["tiny-mc16-s0", "tiny-mc64-s0"], "{reused:?}");
+    let plan = StudyPlan::load(&dir).unwrap();
+    let read = |id: &str| -> serde_json::Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(run_dir(&dir, id).join("metrics.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    let centre = read("tiny-centre-s0");
+    for id in &reused {
+        let m = read(id);
+        assert_eq!(m["train"]["resumed_from"], 40, "{id} retrained");
+        assert_eq!(m["config_hash"], centre["config_hash"]);
+        assert_ne!(m["mesh"]["vertices"], centre["mesh"]["vertices"], "{id}");
+    }
+    let csv = std::fs::read_to_string(dir.join("report/pareto.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 12, "{csv}");
+    let t = |v: &str| -> f64 {
+        let l = csv
+            .lines()
+            .find(|l| l.starts_with(&format!("{v},")))
+            .unwrap();
+        l.split(',').nth(6).unwrap().parse().unwrap()
+    };
+    let centre_train = centre["timings_s"]["train"].as_f64().unwrap();
+    assert!(
+        t("mc=16") > centre_train,
+        "a reused training still costs its training time"
+    );
+    assert!(dir.join("report/pareto.png").is_file());
+    assert_eq!(plan.runs.len(), 11);
+}
