@@ -1,23 +1,90 @@
-//! `cargo bench --bench field`: throughput of the NeuS training step on the CPU.
+//! `cargo bench --bench field`: throughput of the NeuS field on the CPU.
 //!
 //! Prints (all inputs built outside the timed regions):
-//! 1. the machine's f32 FMA peak, measured with a tight FMA loop on every rayon thread;
-//! 2. the MLP GEMMs through `matrixmultiply` against the naive triple loop (the peer);
-//! 3. the training step (forward + backward with 6-tap finite-difference normals) of the default
-//!    network: samples/s, time per phase, MLP GFLOP/s and the fraction of the FMA peak;
-//! 4. inference rendering throughput for comparison.
+//! 1. the machine's f32 FMA peak (AVX-512 FMA chains on every rayon thread);
+//! 2. the MLP layer kernels against the naive triple loop (the peer measured in the same run);
+//! 3. the whole training iteration as the training loop runs it, on a realistic batch: rays from
+//!    cameras around the unit sphere through a sphere SDF of radius 0.5, the occupancy grid after
+//!    its first update, the dynamic ray count converged to the reference sample budget
+//!    (256 rays × 1024 samples per ray): zero the gradients, `train_step` (forward + backward with
+//!    6-tap finite-difference normals), `AdamW::step` over all parameters. Samples/s for
+//!    `train_step` alone and for the whole iteration, the time per phase, the MLP GFLOP/s and the
+//!    fraction of the FMA peak, the hash-grid memory traffic estimate;
+//! 4. the same for smaller hash tables (T = 2^16, 2^17) as CPU presets may use;
+//! 5. rendering (forward only) and SDF queries (occupancy updates, marching cubes).
 //!
-//! `NEUS_AUG_BENCH_SECS` (default 8) sets the seconds spent on the training-step measurement.
+//! The machine may be shared: every throughput is printed twice, per wall-clock second and per
+//! CPU second of this process times the thread count (what the threads would do on otherwise idle
+//! cores), together with the load average.
+//!
+//! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
+//! `NEUS_AUG_BENCH_QUICK=1` runs only the default network's training iteration.
 
 use neus_aug::field::mlp::{linear_forward, linear_forward_naive};
+use neus_aug::field::HashGridConfig;
 use neus_aug::render::{ModelConfig, NeusModel, PhaseTimes, RayBatch, Targets};
+use neus_aug::train::{AdamW, AdamWConfig};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use std::hint::black_box;
 use std::time::Instant;
 
-/// GFLOP/s of independent FMA chains on one thread (16 accumulators hide the FMA latency).
+/// CPU seconds used by this process so far (all threads), from `/proc/self/task/*/schedstat`
+/// (nanoseconds on a CPU). `None` where that is unavailable.
+fn cpu_seconds() -> Option<f64> {
+    let mut total = 0u64;
+    for e in std::fs::read_dir("/proc/self/task").ok()? {
+        let p = e.ok()?.path().join("schedstat");
+        let s = std::fs::read_to_string(p).ok()?;
+        total += s.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total as f64 * 1e-9)
+}
+
+fn loadavg() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "n/a".into())
+}
+
+/// Wall and CPU time of a region.
+struct Clock {
+    wall: Instant,
+    cpu: Option<f64>,
+}
+
+impl Clock {
+    fn start() -> Self {
+        Self {
+            cpu: cpu_seconds(),
+            wall: Instant::now(),
+        }
+    }
+    /// (wall seconds, CPU seconds or wall × threads when unavailable).
+    fn stop(&self) -> (f64, f64) {
+        let w = self.wall.elapsed().as_secs_f64();
+        let threads = rayon::current_num_threads() as f64;
+        let c = match (self.cpu, cpu_seconds()) {
+            (Some(a), Some(b)) => b - a,
+            _ => w * threads,
+        };
+        (w, c)
+    }
+}
+
+/// "X/s wall, Y/s per CPU·threads".
+fn rate(count: f64, wall: f64, cpu: f64) -> String {
+    let threads = rayon::current_num_threads() as f64;
+    format!(
+        "{:>9.0}/s wall, {:>9.0}/s on {} idle cores (CPU-time normalised)",
+        count / wall,
+        count / cpu * threads,
+        threads
+    )
+}
+
+/// FLOPs of independent AVX-512 FMA chains on one thread (16 accumulators hide the latency).
 fn fma_thread(iters: u64) -> f64 {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
     unsafe {
@@ -52,110 +119,180 @@ fn fma_thread(iters: u64) -> f64 {
     }
 }
 
+/// FMA peak of all threads (FLOP/s), per CPU second × threads (robust to other load).
 fn fma_peak() -> f64 {
     let threads = rayon::current_num_threads();
-    let iters = 50_000_000u64;
+    let iters = 40_000_000u64;
     fma_thread(iters / 100); // warm up
-    let t = Instant::now();
+    let c = Clock::start();
     let flops: f64 = (0..threads)
         .into_par_iter()
         .map(|_| fma_thread(iters))
         .sum();
-    flops / t.elapsed().as_secs_f64()
+    let (w, cpu) = c.stop();
+    println!(
+        "== f32 FMA peak ({threads} threads): {:.1} GFLOP/s wall, {:.1} GFLOP/s CPU-time normalised ==",
+        flops / w / 1e9,
+        flops / cpu * threads as f64 / 1e9
+    );
+    flops / cpu * threads as f64
 }
 
 fn gemm_compare() {
     let mut rng = Pcg64Mcg::seed_from_u64(1);
-    println!("\n== MLP layers: matrixmultiply vs naive loops (one thread, f32) ==");
+    println!(
+        "\n== MLP layers: linear_forward vs naive loops (one thread, f32, GFLOP/s per CPU s) =="
+    );
     for &(n, di, d_o) in &[
-        (14336usize, 35usize, 64usize),
-        (2048, 64, 13),
-        (2048, 64, 64),
-        (2048, 51, 64),
+        (3584usize, 35usize, 64usize),
+        (512, 64, 13),
+        (512, 64, 64),
+        (512, 32, 64),
     ] {
         let w: Vec<f32> = (0..di * d_o).map(|_| rng.random_range(-1.0..1.0)).collect();
         let b: Vec<f32> = (0..d_o).map(|_| rng.random_range(-1.0..1.0)).collect();
         let x: Vec<f32> = (0..n * di).map(|_| rng.random_range(-1.0..1.0)).collect();
         let mut y = vec![0f32; n * d_o];
         let flops = 2.0 * (n * di * d_o) as f64;
-        let reps = (2e9 / flops).ceil() as usize;
-        let t = Instant::now();
+        let reps = (1e9 / flops).ceil() as usize;
+        let c = Clock::start();
         for _ in 0..reps {
             linear_forward(&w, &b, &x, n, di, d_o, &mut y);
             black_box(&y);
         }
-        let g_mm = flops * reps as f64 / t.elapsed().as_secs_f64() / 1e9;
-        let t = Instant::now();
-        for _ in 0..reps.div_ceil(4) {
+        let g_mm = flops * reps as f64 / c.stop().1 / 1e9;
+        let c = Clock::start();
+        for _ in 0..reps.div_ceil(8) {
             linear_forward_naive(&w, &b, &x, n, di, d_o, &mut y);
             black_box(&y);
         }
-        let g_nv = flops * reps.div_ceil(4) as f64 / t.elapsed().as_secs_f64() / 1e9;
+        let g_nv = flops * reps.div_ceil(8) as f64 / c.stop().1 / 1e9;
         println!(
-            "  [{n} x {di}] -> {d_o}: matrixmultiply {g_mm:6.1} GFLOP/s, naive {g_nv:6.1} GFLOP/s, ratio {:.2}x",
+            "  [{n} x {di}] -> {d_o}: linear_forward {g_mm:6.1}, naive {g_nv:6.1}, ratio {:.1}x",
             g_mm / g_nv
         );
     }
 }
 
-/// MLP multiply-adds per sample, forward only: SDF hidden layers on 7 points, SDF output layer
-/// (13 channels at the centre, 1 at each tap), colour MLP.
-fn mlp_macs_per_sample(model: &NeusModel) -> f64 {
+/// MLP multiply-adds per sample, forward and backward as `train_step` computes them: SDF hidden
+/// layers on 7 points, SDF output layer (all channels at the centre, the SDF at each tap), colour
+/// MLP; backward = weight gradient + input gradient of every layer (the colour input layer and
+/// the SDF input layer need their input gradient for the normals and the hash grid).
+fn mlp_macs_per_sample(model: &NeusModel) -> (f64, f64) {
     let s = &model.sdf_mlp.dims;
-    let mut sdf = 0.0;
+    let mut fwd = 0.0;
     for l in 0..s.len() - 2 {
-        sdf += 7.0 * (s[l] * s[l + 1]) as f64;
+        fwd += 7.0 * (s[l] * s[l + 1]) as f64;
     }
     let wh = s[s.len() - 2] as f64;
-    sdf += wh * *s.last().unwrap() as f64 + 6.0 * wh;
+    fwd += wh * *s.last().unwrap() as f64 + 6.0 * wh;
     let c = &model.color_mlp.dims;
-    let col: f64 = (0..c.len() - 1).map(|l| (c[l] * c[l + 1]) as f64).sum();
-    sdf + col
+    fwd += (0..c.len() - 1)
+        .map(|l| (c[l] * c[l + 1]) as f64)
+        .sum::<f64>();
+    (fwd, 2.0 * fwd)
 }
 
-/// Origins, directions, target colours, masks.
-type Rays = (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>);
+/// A batch of rays from pinhole cameras on a sphere of radius 2.5 looking at the origin (field
+/// of view ~34°, as DTU's normalised cameras), random pixels; targets: random colours, mask = the
+/// ray hits the sphere of radius 0.5.
+struct Rays {
+    origins: Vec<[f32; 3]>,
+    dirs: Vec<[f32; 3]>,
+    rgb: Vec<[f32; 3]>,
+    mask: Vec<f32>,
+}
 
 fn rays_towards_sphere(n: usize, seed: u64) -> Rays {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-    let (mut o, mut d, mut c, mut m) = (vec![], vec![], vec![], vec![]);
+    let n_cams = 49;
+    let cams: Vec<[[f32; 3]; 4]> = (0..n_cams)
+        .map(|_| {
+            let th: f32 = rng.random_range(0.0..std::f32::consts::TAU);
+            let z: f32 = rng.random_range(-0.3..0.9);
+            let r = (1.0 - z * z).sqrt();
+            let c = [2.5 * r * th.cos(), 2.5 * r * th.sin(), 2.5 * z];
+            let f = norm([-c[0], -c[1], -c[2]]);
+            let right = norm(cross(f, [0.0, 0.0, 1.0]));
+            let down = cross(f, right);
+            [c, f, right, down]
+        })
+        .collect();
+    let half = (17f32).to_radians().tan();
+    let mut b = Rays {
+        origins: vec![],
+        dirs: vec![],
+        rgb: vec![],
+        mask: vec![],
+    };
     for _ in 0..n {
-        // Camera positions on a cap at distance 2.5 looking at points in the inner region.
-        let th: f32 = rng.random_range(0.0..std::f32::consts::TAU);
-        let z: f32 = rng.random_range(0.2..0.9);
-        let r = (1.0 - z * z).sqrt();
-        let orig = [2.5 * r * th.cos(), 2.5 * r * th.sin(), -2.5 * z];
-        let tgt: [f32; 3] = [
-            rng.random_range(-0.6..0.6),
-            rng.random_range(-0.6..0.6),
-            rng.random_range(-0.6..0.6),
-        ];
-        let dir = [tgt[0] - orig[0], tgt[1] - orig[1], tgt[2] - orig[2]];
-        let l = (dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]).sqrt();
-        o.push(orig);
-        d.push(dir.map(|v| v / l));
-        c.push([rng.random(), rng.random(), rng.random()]);
-        m.push(if rng.random::<bool>() { 1.0 } else { 0.0 });
+        let [c, f, right, down] = cams[rng.random_range(0..n_cams)];
+        let (u, v): (f32, f32) = (rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0));
+        let d = norm([
+            f[0] + half * (u * right[0] + v * down[0]),
+            f[1] + half * (u * right[1] + v * down[1]),
+            f[2] + half * (u * right[2] + v * down[2]),
+        ]);
+        // Closest approach to the origin: inside the sphere of radius 0.5 means a hit.
+        let tc = -(c[0] * d[0] + c[1] * d[1] + c[2] * d[2]);
+        let p = [c[0] + tc * d[0], c[1] + tc * d[1], c[2] + tc * d[2]];
+        let hit = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() < 0.5;
+        b.origins.push(c);
+        b.dirs.push(d);
+        b.rgb.push([rng.random(), rng.random(), rng.random()]);
+        b.mask.push(if hit { 1.0 } else { 0.0 });
     }
-    (o, d, c, m)
+    b
 }
 
-fn main() {
-    let secs: f64 = std::env::var("NEUS_AUG_BENCH_SECS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(8.0);
-    let threads = rayon::current_num_threads();
-    println!("neus-aug field bench: {threads} rayon threads");
-    let peak = fma_peak();
-    println!(
-        "== f32 FMA peak ({threads} threads): {:.1} GFLOP/s ==",
-        peak / 1e9
-    );
-    gemm_compare();
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
 
-    // Default network (DESIGN §5), sphere init, occupancy grid after the first update.
-    let model = NeusModel::new(ModelConfig::default()).expect("default config");
+fn norm(a: [f32; 3]) -> [f32; 3] {
+    let l = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    a.map(|v| v / l)
+}
+
+/// Totals of one measured configuration.
+#[derive(Default)]
+struct IterStats {
+    steps: usize,
+    samples: usize,
+    rays: usize,
+    /// Wall seconds: zeroing, train_step, AdamW.
+    zero: f64,
+    step: f64,
+    adam: f64,
+    /// Wall and CPU seconds of the whole loop.
+    wall: f64,
+    cpu: f64,
+    phases: PhaseTimes,
+}
+
+fn add_phases(a: &mut PhaseTimes, t: &PhaseTimes) {
+    a.sample += t.sample;
+    a.encode_fwd += t.encode_fwd;
+    a.sdf_mlp_fwd += t.sdf_mlp_fwd;
+    a.color_fwd += t.color_fwd;
+    a.render += t.render;
+    a.color_bwd += t.color_bwd;
+    a.sdf_mlp_bwd += t.sdf_mlp_bwd;
+    a.encode_bwd += t.encode_bwd;
+    a.reduce += t.reduce;
+}
+
+/// Sample budget of the reference (`train_num_rays · num_samples_per_ray`).
+const BUDGET: usize = 256 * 1024;
+
+/// Builds the model, parameters, occupancy grid and a batch whose ray count is converged to the
+/// sample budget, then runs whole training iterations for `secs` seconds.
+fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, IterStats) {
+    let model = NeusModel::new(cfg).expect("valid config");
     let mut params = model.init_params(0);
     // Give the grid columns of the first layer some weight so the hash grid matters.
     let sdf = model.layout.group("sdf_mlp").unwrap().clone();
@@ -164,129 +301,434 @@ fn main() {
         *v += rng.random_range(-0.01..0.01);
     }
     let mut occ = model.new_occupancy_grid();
-    let t = Instant::now();
+    let c = Clock::start();
     model.update_occupancy(&params, &mut occ, 0, model.config.schedule(0), 0);
-    let occ_time = t.elapsed().as_secs_f64();
-    println!(
-        "\n== occupancy update (all {} cells): {:.2} s, occupied {:.1}% ==",
-        occ.n_cells(),
-        occ_time,
-        100.0 * occ.occupied_fraction()
-    );
-
-    let n_rays = 512;
-    let (o, d, c, m) = rays_towards_sphere(n_rays, 3);
-    let rays = RayBatch {
-        origins: &o,
-        dirs: &d,
-        codes: &[],
-        p: &[],
-    };
-    let targets = Targets {
-        rgb: &c,
-        mask: Some(&m),
-    };
+    let (w, cpu) = c.stop();
+    if verbose {
+        println!(
+            "\n== occupancy update at warm-up (all {} cells): {:.2} s wall, {:.2} CPU s; {} points; occupied {:.1}% ==",
+            occ.n_cells(),
+            w,
+            cpu,
+            rate(occ.n_cells() as f64, w, cpu),
+            100.0 * occ.occupied_fraction()
+        );
+    }
+    let all = rays_towards_sphere(16384, 3);
     let sched = model.config.schedule(1000);
     let mut grads = vec![0f32; params.len()];
-    // Warm-up step (allocations, page faults of the gradient buffers).
-    let w = model
-        .train_step(&params, &mut grads, &rays, &targets, sched, Some(&occ), 0)
-        .unwrap();
-    println!(
-        "\n== training step, default network (L=16, F=2, T=2^19, 64-wide), {n_rays} rays, {} samples/step ==",
-        w.n_samples
-    );
-    let mut total = PhaseTimes::default();
-    let mut samples = 0usize;
-    let mut steps = 0usize;
-    let t = Instant::now();
-    while t.elapsed().as_secs_f64() < secs || steps < 2 {
-        let out = model
+    let mut opt = AdamW::new(AdamWConfig::default(), params.len());
+    // Converge the dynamic ray count (these steps double as the warm-up).
+    let mut n_rays = model.config.render.train_num_rays;
+    let mut offset = 0usize;
+    let mut take = |n: usize| {
+        let n = n.min(all.origins.len());
+        if offset + n > all.origins.len() {
+            offset = 0;
+        }
+        let r = offset..offset + n;
+        offset += n;
+        r
+    };
+    let max_rays = model.config.render.max_train_num_rays;
+    for k in 0..12 {
+        let r = take(n_rays);
+        let rays = RayBatch {
+            origins: &all.origins[r.clone()],
+            dirs: &all.dirs[r.clone()],
+            codes: &[],
+            p: &[],
+        };
+        let t = Targets {
+            rgb: &all.rgb[r.clone()],
+            mask: Some(&all.mask[r]),
+        };
+        grads.fill(0.0);
+        let o = model
+            .train_step(&params, &mut grads, &rays, &t, sched, Some(&occ), k)
+            .unwrap();
+        n_rays = neus_aug::render::model::next_num_rays(n_rays, o.n_samples, BUDGET, max_rays);
+    }
+    let mut st = IterStats::default();
+    let c = Clock::start();
+    while c.wall.elapsed().as_secs_f64() < secs || st.steps < 2 {
+        let r = take(n_rays);
+        let rays = RayBatch {
+            origins: &all.origins[r.clone()],
+            dirs: &all.dirs[r.clone()],
+            codes: &[],
+            p: &[],
+        };
+        let t = Targets {
+            rgb: &all.rgb[r.clone()],
+            mask: Some(&all.mask[r]),
+        };
+        let t0 = Instant::now();
+        grads.fill(0.0);
+        let t1 = Instant::now();
+        let o = model
             .train_step(
                 &params,
                 &mut grads,
                 &rays,
-                &targets,
+                &t,
                 sched,
                 Some(&occ),
-                steps as u64,
+                100 + st.steps as u64,
             )
             .unwrap();
-        samples += out.n_samples;
-        steps += 1;
-        let tt = out.times;
-        total.sample += tt.sample;
-        total.encode_fwd += tt.encode_fwd;
-        total.sdf_mlp_fwd += tt.sdf_mlp_fwd;
-        total.color_fwd += tt.color_fwd;
-        total.render += tt.render;
-        total.color_bwd += tt.color_bwd;
-        total.sdf_mlp_bwd += tt.sdf_mlp_bwd;
-        total.encode_bwd += tt.encode_bwd;
-        total.reduce += tt.reduce;
+        let t2 = Instant::now();
+        opt.step(&mut params, &grads, &model.layout, 1.0).unwrap();
+        let t3 = Instant::now();
+        st.zero += (t1 - t0).as_secs_f64();
+        st.step += (t2 - t1).as_secs_f64();
+        st.adam += (t3 - t2).as_secs_f64();
+        st.samples += o.n_samples;
+        st.rays += o.n_rays;
+        st.steps += 1;
+        add_phases(&mut st.phases, &o.times);
+        n_rays = neus_aug::render::model::next_num_rays(n_rays, o.n_samples, BUDGET, max_rays);
     }
-    let wall = t.elapsed().as_secs_f64();
-    let sps = samples as f64 / wall;
-    let macs = mlp_macs_per_sample(&model);
-    // Forward + backward of a GEMM layer: 3 products (y, dW, dX) of 2 FLOPs per MAC.
-    let flops = sps * macs * 2.0 * 3.0;
+    (st.wall, st.cpu) = c.stop();
+    black_box(&params);
+    (model, st)
+}
+
+fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: bool) -> f64 {
+    let threads = rayon::current_num_threads() as f64;
+    let n = st.samples as f64;
+    // CPU share of the loop that the process got, used to normalise wall-clock parts.
+    let share = (st.cpu / (st.wall * threads)).min(1.0);
     println!(
-        "  {steps} steps in {wall:.2} s: {:.0} samples/s ({:.1} ms/step)",
-        sps,
-        1e3 * wall / steps as f64
+        "\n== {label}: {} params, {} steps, {:.0} rays x {:.0} samples/ray = {:.0} samples/step ==",
+        model.n_params(),
+        st.steps,
+        st.rays as f64 / st.steps as f64,
+        n / st.rays as f64,
+        n / st.steps as f64
     );
     println!(
-        "  target 400k samples/s: {:.1}% of target",
+        "  whole iteration (zero grads + train_step + AdamW): {} samples",
+        rate(n, st.wall, st.cpu)
+    );
+    let step_cpu = st.step * threads * share;
+    println!(
+        "  train_step alone:                                  {} samples",
+        rate(n, st.step, step_cpu)
+    );
+    let it = st.zero + st.step + st.adam;
+    println!(
+        "  per iteration: zero {:.1} ms ({:.1}%), train_step {:.1} ms ({:.1}%), AdamW {:.1} ms ({:.1}%) [wall; process got {:.0}% of {} cores]",
+        1e3 * st.zero / st.steps as f64,
+        100.0 * st.zero / it,
+        1e3 * st.step / st.steps as f64,
+        100.0 * st.step / it,
+        1e3 * st.adam / st.steps as f64,
+        100.0 * st.adam / it,
+        100.0 * share,
+        threads
+    );
+    let sps_step = n / step_cpu * threads;
+    if detail {
+        let (f, b) = mlp_macs_per_sample(model);
+        let flops = 2.0 * (f + b);
+        let p = &st.phases;
+        let mlp_time = p.sdf_mlp_fwd + p.color_fwd + p.color_bwd + p.sdf_mlp_bwd;
+        let cpu_phases = p.encode_fwd
+            + p.sdf_mlp_fwd
+            + p.color_fwd
+            + p.render
+            + p.color_bwd
+            + p.sdf_mlp_bwd
+            + p.encode_bwd;
+        println!(
+            "  MLP work: {:.0} MACs/sample fwd + {:.0} bwd = {:.0} kFLOP/sample -> {:.1} GFLOP/s at the train_step rate = {:.1}% of the FMA peak",
+            f,
+            b,
+            flops / 1e3,
+            sps_step * flops / 1e9,
+            100.0 * sps_step * flops / peak
+        );
+        println!(
+            "  inside the MLP phases alone: {:.1} GFLOP/s per core = {:.1}% of the per-core peak",
+            n * flops / (mlp_time * share) / 1e9,
+            100.0 * n * flops / (mlp_time * share) / (peak / threads)
+        );
+        println!("  where train_step's time goes (thread seconds summed over shards):");
+        for (name, v) in [
+            ("hash encode fwd (7 pts)", p.encode_fwd),
+            ("SDF MLP fwd", p.sdf_mlp_fwd),
+            ("normals + colour MLP fwd", p.color_fwd),
+            ("alpha + compositing + loss", p.render),
+            ("colour MLP bwd", p.color_bwd),
+            ("normal/eikonal + SDF MLP bwd", p.sdf_mlp_bwd),
+            ("hash encode bwd (scatter)", p.encode_bwd),
+        ] {
+            println!(
+                "    {name:<30} {:6.2} us/sample {:5.1}%",
+                1e6 * v * share / n,
+                100.0 * v / cpu_phases
+            );
+        }
+        println!(
+            "    {:<30} {:6.2} us/sample (serial)",
+            "ray marching",
+            1e6 * p.sample * share / n
+        );
+        println!(
+            "    {:<30} {:6.2} us/sample (shard-gradient reduction, parallel)",
+            "reduce",
+            1e6 * p.reduce * share / n
+        );
+    }
+    sps_step
+}
+
+/// Sample points of a realistic batch (ray order) with their finite-difference taps.
+fn stencil_points(model: &NeusModel, params: &[f32], n_rays: usize) -> Vec<[[f32; 3]; 7]> {
+    let mut occ = model.new_occupancy_grid();
+    if std::env::var("NEUS_AUG_BENCH_HASH_ONLY").is_err() {
+        model.update_occupancy(params, &mut occ, 0, model.config.schedule(0), 0);
+    }
+    let rays = rays_towards_sphere(n_rays, 11);
+    let r = model.config.render.radius;
+    let s = neus_aug::render::rays::march_rays(
+        &rays.origins,
+        &rays.dirs,
+        r,
+        model.render_step_size(),
+        &[],
+        Some(&occ),
+    );
+    let eps = model.fd_eps(model.grid.levels.len()) as f32;
+    let mut out = Vec::with_capacity(s.n_samples());
+    for ray in 0..s.n_rays() {
+        let (o, d) = (rays.origins[ray], rays.dirs[ray]);
+        for i in s.range(ray) {
+            let t = s.t[i];
+            let x = [o[0] + d[0] * t, o[1] + d[1] * t, o[2] + d[2] * t];
+            let mut pts = [x; 7];
+            for k in 0..6 {
+                let v = &mut pts[k + 1][k / 2];
+                *v = if k % 2 == 0 { *v + eps } else { *v - eps }.clamp(-r, r);
+            }
+            out.push(pts);
+        }
+    }
+    out
+}
+
+/// The hash-grid encoding of a sample and its six taps, forward and backward, one thread:
+/// the general seven-point path (`encode_group`) against the stencil path (`encode_fd`),
+/// interleaved so both see the same machine load; best of several rounds.
+fn hash_paths(model: &NeusModel, params: &[f32]) {
+    let n_rays = if std::env::var("NEUS_AUG_BENCH_HASH_ONLY").is_ok() {
+        60
+    } else {
+        600
+    };
+    let pts = stencil_points(model, params, n_rays);
+    let g = &model.grid;
+    let d = g.output_dim();
+    let table = &params[model.layout.group("hash_grid").unwrap().range()];
+    let mut grad = vec![0f32; table.len()];
+    let chunk = 512;
+    let mut enc = vec![0f32; 7 * chunk * d];
+    let rows_of = |i: usize| -> [usize; 7] {
+        let b = chunk + 6 * i;
+        [
+            i * d,
+            b * d,
+            (b + 1) * d,
+            (b + 2) * d,
+            (b + 3) * d,
+            (b + 4) * d,
+            (b + 5) * d,
+        ]
+    };
+    let split = |p: &[[f32; 3]; 7]| (p[0], [0, 1, 2].map(|a| [p[1 + 2 * a][a], p[2 + 2 * a][a]]));
+    let active = g.levels.len();
+    let rounds: usize = std::env::var("NEUS_AUG_ROUNDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(12);
+    let mut best = [f64::MAX; 6];
+    let part_len = 20000.min(pts.len() / 2);
+    for round in 0..rounds {
+        let k0 = (round * part_len) % (pts.len() - part_len + 1);
+        let part = &pts[k0..k0 + part_len];
+        let xs: Vec<[f32; 3]> = part.iter().map(|p| split(p).0).collect();
+        let taps: Vec<[[f32; 2]; 3]> = part.iter().map(|p| split(p).1).collect();
+        for (k, b) in best.iter_mut().enumerate() {
+            let t = Instant::now();
+            for (ci, c) in part.chunks(chunk).enumerate() {
+                let r = ci * chunk..ci * chunk + c.len();
+                match k {
+                    2 => g.encode_fd_batch(
+                        table,
+                        &xs[r.clone()],
+                        &taps[r],
+                        1.0,
+                        active,
+                        &mut enc,
+                        rows_of,
+                    ),
+                    5 => g.encode_fd_backward_batch(
+                        &xs[r.clone()],
+                        &taps[r],
+                        1.0,
+                        active,
+                        &enc,
+                        rows_of,
+                        &mut grad,
+                    ),
+                    _ => {
+                        for (i, p) in c.iter().enumerate() {
+                            let rows = rows_of(i);
+                            let (x, tp) = split(p);
+                            match k {
+                                0 => g.encode_group(table, p, 1.0, active, &mut enc, &rows),
+                                1 => g.encode_fd(table, x, tp, 1.0, active, &mut enc, &rows),
+                                3 => {
+                                    g.encode_group_backward(p, 1.0, active, &enc, &rows, &mut grad)
+                                }
+                                _ => {
+                                    g.encode_fd_backward(x, tp, 1.0, active, &enc, &rows, &mut grad)
+                                }
+                            }
+                        }
+                    }
+                }
+                black_box(&enc);
+            }
+            *b = b.min(t.elapsed().as_secs_f64() / part.len() as f64);
+        }
+    }
+    let us = best.map(|v| 1e6 * v);
+    println!(
+        "  hash grid, one thread, {} samples x 7 points, us/sample (best of {rounds} rounds):\n    fwd: general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x the general path)\n    bwd: general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x)",
+        pts.len(),
+        us[0], us[1], us[2], us[0] / us[2], us[3], us[4], us[5], us[3] / us[5]
+    );
+}
+
+fn hash_traffic(model: &NeusModel) {
+    let g = &model.grid;
+    let table_mb = (g.n_params() * 4) as f64 / 1e6;
+    println!(
+        "  hash table {:.1} MB ({} levels, {} dense); gradient buffer the same; L3 32 MB",
+        table_mb,
+        g.levels.len(),
+        g.levels.iter().filter(|l| !l.hashed).count()
+    );
+}
+
+fn main() {
+    let secs: f64 = std::env::var("NEUS_AUG_BENCH_SECS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(6.0);
+    if let Ok(l2) = std::env::var("NEUS_AUG_BENCH_HASH_ONLY") {
+        // Profiling aid (callgrind): only the hash-grid paths, table of 2^l2 entries per level.
+        let mut cfg = ModelConfig::default();
+        cfg.field.hash_grid.log2_hashmap_size = l2.parse().expect("log2 table size");
+        let m = NeusModel::new(cfg).unwrap();
+        let p = m.init_params(0);
+        hash_paths(&m, &p);
+        return;
+    }
+    let threads = rayon::current_num_threads();
+    println!(
+        "neus-aug field bench: {threads} rayon threads, load average {} at start",
+        loadavg()
+    );
+    let peak = fma_peak();
+    if std::env::var("NEUS_AUG_BENCH_QUICK").is_err() {
+        gemm_compare();
+    }
+
+    let (model, st) = train_iterations(ModelConfig::default(), secs, true);
+    let sps = report(
+        "default network (L=16, F=2, T=2^19, 64-wide)",
+        &model,
+        &st,
+        peak,
+        true,
+    );
+    hash_traffic(&model);
+    {
+        let mut params = model.init_params(0);
+        let sdf = model.layout.group("sdf_mlp").unwrap().clone();
+        let mut rng = Pcg64Mcg::seed_from_u64(9);
+        for v in &mut params[sdf.range()] {
+            *v += rng.random_range(-0.01..0.01);
+        }
+        hash_paths(&model, &params);
+        if let Ok(l2) = std::env::var("NEUS_AUG_SMALL_T") {
+            let mut cfg = ModelConfig::default();
+            cfg.field.hash_grid.log2_hashmap_size = l2.parse().unwrap();
+            let m = NeusModel::new(cfg).unwrap();
+            let p = m.init_params(0);
+            println!("  T = 2^{l2}:");
+            hash_paths(&m, &p);
+        }
+    }
+    println!(
+        "  target 400k samples/s (train_step, 2 cores): {:.0}% of target",
         100.0 * sps / 4e5
     );
-    println!(
-        "  MLP work: {:.0} MACs/sample fwd -> {:.1} GFLOP/s fwd+bwd = {:.1}% of the FMA peak",
-        macs,
-        flops / 1e9,
-        100.0 * flops / peak
-    );
-    let cpu = total.encode_fwd
-        + total.sdf_mlp_fwd
-        + total.color_fwd
-        + total.render
-        + total.color_bwd
-        + total.sdf_mlp_bwd
-        + total.encode_bwd;
-    println!("  where the time goes (CPU seconds summed over shards; wall = {wall:.2} s x {threads} threads):");
-    for (name, v) in [
-        ("hash encode fwd (7 pts)", total.encode_fwd),
-        ("SDF MLP fwd", total.sdf_mlp_fwd),
-        ("normals + colour MLP fwd", total.color_fwd),
-        ("alpha + compositing + loss", total.render),
-        ("colour MLP bwd", total.color_bwd),
-        ("normal/eikonal + SDF MLP bwd", total.sdf_mlp_bwd),
-        ("hash encode bwd (scatter)", total.encode_bwd),
-    ] {
-        println!("    {name:<30} {:7.3} s  {:5.1}%", v, 100.0 * v / cpu);
-    }
-    println!("    {:<30} {:7.3} s (serial)", "ray marching", total.sample);
-    println!(
-        "    {:<30} {:7.3} s (shard-gradient reduction)",
-        "reduce", total.reduce
-    );
 
-    // Inference rendering for comparison (no backward).
+    if std::env::var("NEUS_AUG_BENCH_QUICK").is_ok() {
+        println!("load average at end: {}", loadavg());
+        return;
+    }
+    for log2 in [17u32, 16] {
+        let cfg = ModelConfig {
+            field: neus_aug::field::FieldConfig {
+                hash_grid: HashGridConfig {
+                    log2_hashmap_size: log2,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let (m, st) = train_iterations(cfg, secs / 2.0, false);
+        report(&format!("T = 2^{log2}"), &m, &st, peak, false);
+    }
+
+    // Inference rendering (no backward) on the default model.
+    let mut params = model.init_params(0);
+    let sdf = model.layout.group("sdf_mlp").unwrap().clone();
+    let mut rng = Pcg64Mcg::seed_from_u64(9);
+    for v in &mut params[sdf.range()] {
+        *v += rng.random_range(-0.01..0.01);
+    }
+    let mut occ = model.new_occupancy_grid();
+    model.update_occupancy(&params, &mut occ, 0, model.config.schedule(0), 0);
+    let rays = rays_towards_sphere(1024, 5);
+    let batch = RayBatch {
+        origins: &rays.origins,
+        dirs: &rays.dirs,
+        codes: &[],
+        p: &[],
+    };
     let isched = model.config.inference_schedule(1000);
-    let r = model.render(&params, &rays, isched, Some(&occ)).unwrap();
-    let t = Instant::now();
+    let r = model.render(&params, &batch, isched, Some(&occ)).unwrap();
+    let c = Clock::start();
     let mut k = 0;
-    while t.elapsed().as_secs_f64() < secs / 4.0 || k < 2 {
-        black_box(model.render(&params, &rays, isched, Some(&occ)).unwrap());
+    while c.wall.elapsed().as_secs_f64() < secs / 4.0 || k < 2 {
+        black_box(model.render(&params, &batch, isched, Some(&occ)).unwrap());
         k += 1;
     }
-    let rs = (r.n_samples * k) as f64 / t.elapsed().as_secs_f64();
+    let (w, cpu) = c.stop();
     println!(
-        "\n== render (forward only, FD normals) ==\n  {:.0} samples/s, {:.2}x the training step",
-        rs,
-        rs / sps
+        "\n== render (forward only, FD normals, {} samples/batch): {} samples ==",
+        r.n_samples,
+        rate((r.n_samples * k) as f64, w, cpu)
     );
-    // SDF queries (marching cubes).
-    let pts: Vec<[f32; 3]> = (0..1 << 18)
+    // SDF queries at random points (marching cubes and occupancy updates use the same path).
+    let pts: Vec<[f32; 3]> = (0..1 << 20)
         .map(|_| {
             [
                 rng.random_range(-1.0..1.0),
@@ -295,10 +737,13 @@ fn main() {
             ]
         })
         .collect();
-    let t = Instant::now();
+    black_box(model.sdf(&params, &pts[..1 << 14], 16));
+    let c = Clock::start();
     black_box(model.sdf(&params, &pts, 16));
+    let (w, cpu) = c.stop();
     println!(
-        "== sdf queries: {:.0} points/s ==",
-        pts.len() as f64 / t.elapsed().as_secs_f64()
+        "== sdf queries at random points: {} points ==",
+        rate(pts.len() as f64, w, cpu)
     );
+    println!("load average at end: {}", loadavg());
 }

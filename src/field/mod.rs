@@ -15,6 +15,7 @@
 pub mod config;
 pub mod fastmath;
 pub mod hashgrid;
+pub mod lanes;
 pub mod mlp;
 pub mod params;
 pub mod sh;
@@ -62,6 +63,11 @@ pub trait Real:
     fn maxv(self, o: Self) -> Self;
     fn minv(self, o: Self) -> Self;
     fn is_finite(self) -> bool;
+    /// The grid cell of a floored position: `self` clamped to the `i32` range (NaN → `i32::MIN`),
+    /// converted to `i32` and reinterpreted as `u32`, wrapping below 0 like tcnn's
+    /// `(uint32_t)(int)floor(pos)`. Written so that it vectorises (a saturating `as` cast does
+    /// not).
+    fn cell_u32(self) -> u32;
     /// Softplus `ln(1 + e^{βz})/β` and its derivative `σ(βz)`, computed as
     /// `max(z,0) + ln1p(e^{−|βz|})/β` (no overflow, no threshold). `f64` uses the standard library;
     /// `f32` uses branch-free polynomial `exp`/`ln1p` that vectorise ([`fastmath`]), relative
@@ -160,6 +166,13 @@ macro_rules! impl_real {
             #[inline(always)]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
+            }
+            #[inline(always)]
+            fn cell_u32(self) -> u32 {
+                let v = self.max(-2_147_483_648.0).min(2_147_483_520.0);
+                // SAFETY: `v` is finite (max of NaN and a number is the number) and inside the
+                // i32 range.
+                unsafe { v.to_int_unchecked::<i32>() as u32 }
             }
             #[inline(always)]
             fn softplus_and_grad(z: Self, beta: Self) -> (Self, Self) {

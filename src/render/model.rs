@@ -272,6 +272,61 @@ pub struct NeusModel {
     pub color_mlp: Mlp,
     /// Groups in this order: `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`.
     pub layout: ParamLayout,
+    /// Buffers [`NeusModel::train_step`] reuses between calls (see [`WorkspaceCache`]).
+    workspace: WorkspaceCache,
+}
+
+/// Buffers a training step keeps between calls so that it allocates and zeroes nothing of the
+/// parameter size: the gradient buffers of shards `1..` (all zero between steps; shard 0 adds
+/// into the caller's buffer) and each shard's scratch vectors.
+struct StepWorkspace<T> {
+    extra: Vec<Vec<T>>,
+    scratch: Vec<Scratch<T>>,
+}
+
+impl<T> Default for StepWorkspace<T> {
+    fn default() -> Self {
+        Self {
+            extra: Vec::new(),
+            scratch: Vec::new(),
+        }
+    }
+}
+
+/// A cache holding at most one [`StepWorkspace`] (of whichever scalar type was used last).
+/// Taken out for the duration of a step and put back after it, so a step that panics drops it
+/// (no half-written buffer is ever reused) and concurrent steps on one model each get their own.
+/// Cloning a model gives the clone an empty cache. Holds about one gradient buffer per extra
+/// shard (56 MB per shard for the default network).
+#[derive(Default)]
+struct WorkspaceCache(std::sync::Mutex<Option<Box<dyn std::any::Any + Send>>>);
+
+impl WorkspaceCache {
+    fn take<T: Real>(&self) -> StepWorkspace<T> {
+        let cached = self.0.lock().ok().and_then(|mut g| g.take());
+        cached
+            .and_then(|b| b.downcast::<StepWorkspace<T>>().ok())
+            .map(|b| *b)
+            .unwrap_or_default()
+    }
+
+    fn put<T: Real>(&self, ws: StepWorkspace<T>) {
+        if let Ok(mut g) = self.0.lock() {
+            *g = Some(Box::new(ws));
+        }
+    }
+}
+
+impl Clone for WorkspaceCache {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for WorkspaceCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("WorkspaceCache")
+    }
 }
 
 /// Mutable gradient views of each group.
@@ -294,7 +349,9 @@ struct Groups<'a, T> {
 /// Per-shard buffers, reused across chunks.
 #[derive(Default)]
 struct Scratch<T> {
-    pts: Vec<[[T; 3]; 7]>,
+    /// Sample centres `[n][3]` and their finite-difference tap coordinates `[n][axis][+/−]`.
+    xs: Vec<[T; 3]>,
+    taps: Vec<[[T; 2]; 3]>,
     dir: Vec<[T; 3]>,
     enc: Vec<T>,
     sdf_tape: MlpTape<T>,
@@ -406,6 +463,7 @@ impl NeusModel {
             sdf_mlp,
             color_mlp,
             layout,
+            workspace: WorkspaceCache::default(),
         })
     }
 
@@ -615,19 +673,29 @@ impl NeusModel {
         let bounds = self.chunks(&samples);
         let n_chunks = bounds.len() - 1;
         let k = self.n_shards().min(n_chunks).max(1);
-        let mut extra: Vec<Vec<T>> = (1..k).map(|_| vec![T::ZERO; params.len()]).collect();
+        let mut ws = self.workspace.take::<T>();
+        if ws.extra.len() < k - 1 {
+            ws.extra.resize_with(k - 1, Vec::new);
+        }
+        for e in ws.extra.iter_mut() {
+            if e.len() != params.len() {
+                *e = vec![T::ZERO; params.len()];
+            }
+        }
+        ws.scratch
+            .resize_with(k.max(ws.scratch.len()), Scratch::default);
         let mut views: Vec<&mut [T]> = Vec::with_capacity(k);
         views.push(&mut *grads);
-        for e in extra.iter_mut() {
+        for e in ws.extra.iter_mut().take(k - 1) {
             views.push(&mut e[..]);
         }
         let results: Vec<(Sums, PhaseTimes)> = views
             .into_par_iter()
+            .zip(ws.scratch[..k].par_iter_mut())
             .enumerate()
-            .map(|(s, g)| {
+            .map(|(s, (g, scratch))| {
                 let c0 = s * n_chunks / k;
                 let c1 = (s + 1) * n_chunks / k;
-                let mut scratch = Scratch::default();
                 let mut sums = Sums::default();
                 let mut times = PhaseTimes::default();
                 let mut gg = split_mut(&self.layout, g);
@@ -638,7 +706,7 @@ impl NeusModel {
                         &ctx,
                         bounds[c],
                         bounds[c + 1],
-                        &mut scratch,
+                        scratch,
                         &mut sums,
                         &mut times,
                         None,
@@ -662,22 +730,38 @@ impl NeusModel {
             sums.d_inv_s += s.d_inv_s;
             times.add(t);
         }
-        // Fixed-order reduction of the shard buffers, parallel over index blocks.
-        if !extra.is_empty() {
-            const BLOCK: usize = 1 << 16;
-            grads
-                .par_chunks_mut(BLOCK)
-                .enumerate()
-                .for_each(|(bi, gblk)| {
-                    let off = bi * BLOCK;
-                    let len = gblk.len();
-                    for e in &extra {
-                        for (a, &b) in gblk.iter_mut().zip(&e[off..off + len]) {
-                            *a += b;
-                        }
+        // Fixed-order reduction of the shard buffers, parallel over index blocks; the shard
+        // buffers are zeroed on the way, ready for the next step.
+        if k > 1 {
+            const BLOCK: usize = 1 << 14;
+            let mut extra: Vec<std::slice::ChunksMut<'_, T>> = ws
+                .extra
+                .iter_mut()
+                .take(k - 1)
+                .map(|e| e.chunks_mut(BLOCK))
+                .collect();
+            let blocks: Vec<(&mut [T], Vec<&mut [T]>)> = grads
+                .chunks_mut(BLOCK)
+                .map(|gb| {
+                    (
+                        gb,
+                        extra
+                            .iter_mut()
+                            .map(|e| e.next().expect("same length"))
+                            .collect(),
+                    )
+                })
+                .collect();
+            blocks.into_par_iter().for_each(|(gb, es)| {
+                for e in es {
+                    for (a, b) in gb.iter_mut().zip(e.iter_mut()) {
+                        *a += *b;
+                        *b = T::ZERO;
                     }
-                });
+                }
+            });
         }
+        self.workspace.put(ws);
         // Variance gradient: the per-sample ∂α/∂inv_s summed in f64, chained through exp(10v).
         let var_off = self.layout.groups[3].offset;
         grads[var_off] += T::from_f64(sums.d_inv_s) * d_inv_s_dv;
@@ -857,7 +941,8 @@ impl NeusModel {
 
         // ---- positions, taps, hash encoding ----
         let t_enc = Instant::now();
-        sc.pts.clear();
+        sc.xs.clear();
+        sc.taps.clear();
         sc.dir.clear();
         sc.t.clear();
         for r in r0..r1 {
@@ -866,23 +951,24 @@ impl NeusModel {
             for s in samples.range(r) {
                 let t = T::from_f32(samples.t[s]);
                 let x = [o[0] + dir[0] * t, o[1] + dir[1] * t, o[2] + dir[2] * t];
-                let mut pts = [x; 7];
-                for k in 0..6 {
-                    let v = &mut pts[k + 1][k / 2];
-                    *v = if k % 2 == 0 { *v + eps } else { *v - eps };
-                    *v = v.maxv(-radius).minv(radius);
-                }
-                sc.pts.push(pts);
+                // Taps x ± ε·e_a, clamped to the box.
+                let taps = [0, 1, 2].map(|a| {
+                    [
+                        (x[a] + eps).maxv(-radius).minv(radius),
+                        (x[a] - eps).maxv(-radius).minv(radius),
+                    ]
+                });
+                sc.xs.push(x);
+                sc.taps.push(taps);
                 sc.dir.push(dir);
                 sc.t.push(t);
             }
         }
         sc.enc.resize(7 * n * d, T::ZERO);
-        for (i, pts) in sc.pts.iter().enumerate() {
-            let rows = tap_rows(i, n, d);
-            self.grid
-                .encode_group(p.hash, pts, radius, active, &mut sc.enc, &rows);
-        }
+        self.grid
+            .encode_fd_batch(p.hash, &sc.xs, &sc.taps, radius, active, &mut sc.enc, |i| {
+                tap_rows(i, n, d)
+            });
         times.encode_fwd += t_enc.elapsed().as_secs_f64();
 
         // ---- SDF network on centres and taps ----
@@ -1165,11 +1251,15 @@ impl NeusModel {
 
         // ---- hash grid backward ----
         let t_eb = Instant::now();
-        for (i, pts) in sc.pts.iter().enumerate() {
-            let rows = tap_rows(i, n, d);
-            self.grid
-                .encode_group_backward(pts, radius, active, &sc.d_enc, &rows, g.hash);
-        }
+        self.grid.encode_fd_backward_batch(
+            &sc.xs,
+            &sc.taps,
+            radius,
+            active,
+            &sc.d_enc,
+            |i| tap_rows(i, n, d),
+            g.hash,
+        );
         times.encode_bwd += t_eb.elapsed().as_secs_f64();
     }
 }

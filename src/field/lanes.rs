@@ -1,0 +1,814 @@
+//! Level-parallel finite-difference stencil of the hash grid (the training hot path, `F = 2`).
+//!
+//! [`HashGrid::encode_fd`](super::HashGrid::encode_fd) visits levels one after another. Here one
+//! block of 8 levels is processed at once in 16 lanes, lane `2·j + f` = feature `f` of level
+//! `level0 + j`, which is exactly the layout of 16 consecutive values of an encoding row
+//! (`[xyz, level 0 f0, level 0 f1, level 1 f0, …]`). Every step (positions, cells, fractions, the
+//! per-axis index terms, hashing, the face interpolation of the seven points) is the same
+//! arithmetic on 16 independent lanes, which the compiler turns into vector instructions for
+//! `f32`; the table reads and gradient writes are 16 independent loads / read-modify-writes
+//! (different levels live in disjoint table regions, the two features of a level in adjacent
+//! slots, so the lanes of one access never alias).
+//!
+//! Geometry of the stencil (same as the per-level path): the centre cell's 8 corners, plus for
+//! each of the six taps the 4 corners of the far face of the tap's cell when the tap leaves the
+//! centre cell (a tap moves at most one cell when `ε` is at most one cell of the finest active
+//! level). Along the tap's axis the value is a linear interpolation between two faces chosen per
+//! lane from `[face 0, face 1, far face]`; the faces are bilinear interpolations with the shared
+//! weights of the two other axes. A sample whose taps move further falls back to the per-level
+//! path (the caller checks the returned flag).
+//!
+//! The code is generic over [`Real`]: the `f64` gradient checks run this same code.
+
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
+use super::hashgrid::{fd_point, HashGrid, Level};
+use super::Real;
+
+/// Lanes per block: 8 levels × 2 features.
+pub const LANES: usize = 16;
+
+const PRIMES: [u32; 3] = [1, 2_654_435_761, 805_459_861];
+
+/// Per-lane constants of a block of up to 8 levels (`F = 2`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LaneBlock {
+    /// First level of the block.
+    pub level0: usize,
+    /// Levels in the block (≤ 8); lanes of missing levels repeat the block's first level and are
+    /// masked out.
+    pub n_levels: usize,
+    scale: [f64; LANES],
+    /// Per-axis multipliers of the cell coordinates: hashed `(1, π₁, π₂)`, dense `(1, r, r²)`.
+    mul: [[u32; LANES]; 3],
+    /// All ones on hashed levels (combine the terms with xor), zero on dense ones (add them).
+    hashed: [u32; LANES],
+    size: [u32; LANES],
+    /// `size − 1` for power-of-two sizes, all ones otherwise (then a conditional subtraction
+    /// reduces the index).
+    and_mask: [u32; LANES],
+    /// Flat index of the lane's level's entry 0, feature `f`: `2·offset + f`.
+    base: [u32; LANES],
+}
+
+impl LaneBlock {
+    /// Blocks covering `levels` (F = 2), or `None` when flat indices would not fit in `u32`.
+    pub fn build(levels: &[Level], n_params: usize) -> Option<Vec<LaneBlock>> {
+        if n_params >= u32::MAX as usize {
+            return None;
+        }
+        let mut blocks = Vec::new();
+        for level0 in (0..levels.len()).step_by(LANES / 2) {
+            let n_levels = (levels.len() - level0).min(LANES / 2);
+            let mut b = LaneBlock {
+                level0,
+                n_levels,
+                scale: [0.0; LANES],
+                mul: [[0; LANES]; 3],
+                hashed: [0; LANES],
+                size: [0; LANES],
+                and_mask: [0; LANES],
+                base: [0; LANES],
+            };
+            for lane in 0..LANES {
+                let j = if lane / 2 < n_levels { lane / 2 } else { 0 };
+                let lvl = &levels[level0 + j];
+                b.scale[lane] = lvl.scale;
+                let r = lvl.resolution;
+                let m = if lvl.hashed {
+                    PRIMES
+                } else {
+                    [1, r, r.wrapping_mul(r)]
+                };
+                for a in 0..3 {
+                    b.mul[a][lane] = m[a];
+                }
+                b.hashed[lane] = if lvl.hashed { u32::MAX } else { 0 };
+                b.size[lane] = lvl.size;
+                b.and_mask[lane] = if lvl.size.is_power_of_two() {
+                    lvl.size - 1
+                } else {
+                    u32::MAX
+                };
+                b.base[lane] = (2 * lvl.offset + (lane & 1)) as u32;
+            }
+            blocks.push(b);
+        }
+        Some(blocks)
+    }
+}
+
+type L<T> = [T; LANES];
+
+/// Everything the forward and backward of one block need for one sample. Filled by
+/// [`LaneBlock::plan`] into a buffer the caller keeps across samples (nothing is zeroed or copied
+/// per sample; far-face entries are only read where `any_far` says they were written).
+#[derive(Clone)]
+pub(crate) struct Plan<T> {
+    /// Centre-corner flat indices (corner bit `a` = offset along axis `a`).
+    ce: [L<u32>; 8],
+    /// Far-face flat indices `[axis][+/−][face corner]`.
+    fe: [[[L<u32>; 4]; 2]; 3],
+    /// Whether any lane of tap `[axis][+/−]` leaves the centre cell.
+    any_far: [[bool; 2]; 3],
+    /// Lane masks (all ones / zero): the tap `[axis][+/−]` leaves the centre cell.
+    far_m: [[L<u32>; 2]; 3],
+    /// Weights `[axis][0/1]` of the centre (`1 − frac`, `frac`).
+    w: [[L<T>; 2]; 3],
+    /// Fractions of the taps along their axis.
+    ft: [[L<T>; 2]; 3],
+}
+
+impl<T: Real> Default for Plan<T> {
+    fn default() -> Self {
+        Self {
+            ce: [[0; LANES]; 8],
+            fe: [[[[0; LANES]; 4]; 2]; 3],
+            any_far: [[false; 2]; 3],
+            far_m: [[[0; LANES]; 2]; 3],
+            w: [[[T::ZERO; LANES]; 2]; 3],
+            ft: [[[T::ZERO; LANES]; 2]; 3],
+        }
+    }
+}
+
+/// Two per-axis index terms combined both ways (hashed levels xor, dense levels add).
+#[derive(Clone, Copy, Default)]
+struct Pair {
+    x: L<u32>,
+    a: L<u32>,
+}
+
+/// Per-call lane constants of a block: scales in `T` and the active-lane mask.
+#[derive(Clone, Copy)]
+pub(crate) struct LaneConsts<T> {
+    sc: L<T>,
+    /// All ones on lanes of active levels.
+    act: L<u32>,
+}
+
+/// Corner index of face corner `q` of axis `a` at offset `i` along `a` (the other axes `b`,
+/// `c` = `a+1`, `a+2` mod 3 take bits 0 and 1 of `q`).
+#[inline(always)]
+fn corner(a: usize, i: usize, q: usize) -> usize {
+    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+    (i << a) | ((q & 1) << b) | ((q >> 1) << c)
+}
+
+impl LaneBlock {
+    /// Lane constants for `active` levels.
+    pub(crate) fn consts<T: Real>(&self, active: usize) -> LaneConsts<T> {
+        let mut c = LaneConsts {
+            sc: [T::ZERO; LANES],
+            act: [0; LANES],
+        };
+        for l in 0..LANES {
+            c.sc[l] = T::from_f64(self.scale[l]);
+            let on = l / 2 < self.n_levels && self.level0 + l / 2 < active;
+            c.act[l] = if on { u32::MAX } else { 0 };
+        }
+        c
+    }
+
+    /// Flat indices of the lanes from a pair of per-axis terms combined beforehand (`pair`,
+    /// `xor` and `add` forms, see [`Pair`]) and the third axis' term `t`, reduced modulo the
+    /// level size.
+    #[inline(always)]
+    fn index(&self, pair: &Pair, t: &L<u32>) -> L<u32> {
+        let mut out = [0u32; LANES];
+        let mut slow = false;
+        for l in 0..LANES {
+            let h = pair.x[l] ^ t[l];
+            let d = pair.a[l].wrapping_add(t[l]);
+            let mh = self.hashed[l];
+            let i = ((h & mh) | (d & !mh)) & self.and_mask[l];
+            // Dense levels: one subtraction covers the corners of cells inside the box.
+            let s = self.size[l];
+            let i = if i >= s { i.wrapping_sub(s) } else { i };
+            slow |= i >= s;
+            out[l] = i;
+        }
+        if slow {
+            // Far outside the level (points outside the box): the exact modulo, lane by lane.
+            for l in 0..LANES {
+                let h = pair.x[l] ^ t[l];
+                let d = pair.a[l].wrapping_add(t[l]);
+                let i = if self.hashed[l] != 0 { h } else { d };
+                out[l] = i % self.size[l];
+            }
+        }
+        for l in 0..LANES {
+            out[l] = self.base[l].wrapping_add(out[l].wrapping_mul(2));
+        }
+        out
+    }
+
+    /// Fills `pl` with the cells, fractions, tap offsets and (if `indices`) table indices of one
+    /// sample. Returns false if a tap moves more than one cell on an active lane.
+    #[inline(always)]
+    fn plan<T: Real>(
+        &self,
+        k: &LaneConsts<T>,
+        uc: [T; 3],
+        ut: [[T; 2]; 3],
+        indices: bool,
+        pl: &mut Plan<T>,
+    ) -> bool {
+        let half = T::from_f64(0.5);
+        let mut cell = [[0u32; LANES]; 3];
+        let mut ok = true;
+        for a in 0..3 {
+            for l in 0..LANES {
+                let pos = k.sc[l] * uc[a] + half;
+                let fl = pos.floor();
+                cell[a][l] = fl.cell_u32();
+                let f = pos - fl;
+                pl.w[a][0][l] = T::ONE - f;
+                pl.w[a][1][l] = f;
+            }
+            for p in 0..2 {
+                let (mut bad, mut any) = (0u32, 0u32);
+                let (ftp, farm) = (&mut pl.ft[a][p], &mut pl.far_m[a][p]);
+                for l in 0..LANES {
+                    let pos = k.sc[l] * ut[a][p] + half;
+                    let fl = pos.floor();
+                    ftp[l] = pos - fl;
+                    let d = fl.cell_u32().wrapping_sub(cell[a][l]);
+                    // + tap: d ∈ {0, 1}; − tap: d ∈ {0, −1}.
+                    let dd = if p == 0 { d } else { d.wrapping_add(1) };
+                    let act = k.act[l];
+                    bad |= if dd > 1 { act } else { 0 };
+                    let far = if d != 0 { act } else { 0 };
+                    farm[l] = far;
+                    any |= far;
+                }
+                ok &= bad == 0;
+                pl.any_far[a][p] = any != 0;
+            }
+        }
+        if !ok || !indices {
+            return ok;
+        }
+        // Per-axis terms of the coordinates cell and cell+1 (`terms[a][1]`, `terms[a][2]`; a
+        // neighbour's term is one multiplier away).
+        let mut terms = [[[0u32; LANES]; 4]; 3];
+        for a in 0..3 {
+            for m in 1..3 {
+                for l in 0..LANES {
+                    terms[a][m][l] = cell[a][l]
+                        .wrapping_add(m as u32)
+                        .wrapping_sub(1)
+                        .wrapping_mul(self.mul[a][l]);
+                }
+            }
+        }
+        // Combined terms of the two axes other than `a`, for the 4 face corners `q`.
+        let mut pairs = [[Pair::default(); 4]; 3];
+        for a in 0..3 {
+            let (b, c2) = ((a + 1) % 3, (a + 2) % 3);
+            for q in 0..4 {
+                let (tb, tc) = (&terms[b][1 + (q & 1)], &terms[c2][1 + (q >> 1)]);
+                let pr = &mut pairs[a][q];
+                for l in 0..LANES {
+                    pr.x[l] = tb[l] ^ tc[l];
+                    pr.a[l] = tb[l].wrapping_add(tc[l]);
+                }
+            }
+        }
+        for c in 0..8 {
+            // Corner c = face corner q of axis 0 at offset i = c & 1 (q: bits of y and z).
+            pl.ce[c] = self.index(&pairs[0][c >> 1], &terms[0][1 + (c & 1)]);
+        }
+        for a in 0..3 {
+            let mul = &self.mul[a];
+            let mut ta = [0u32; LANES];
+            // + tap: far face at cell+1+d, term `terms[a][2]` plus `d` multipliers.
+            if pl.any_far[a][0] {
+                let (t, m) = (&terms[a][2], &pl.far_m[a][0]);
+                for l in 0..LANES {
+                    ta[l] = t[l].wrapping_add(m[l] & mul[l]);
+                }
+                for q in 0..4 {
+                    pl.fe[a][0][q] = self.index(&pairs[a][q], &ta);
+                }
+            }
+            // − tap: far face at cell+d, term `terms[a][1]` minus `|d|` multipliers.
+            if pl.any_far[a][1] {
+                let (t, m) = (&terms[a][1], &pl.far_m[a][1]);
+                for l in 0..LANES {
+                    ta[l] = t[l].wrapping_sub(m[l] & mul[l]);
+                }
+                for q in 0..4 {
+                    pl.fe[a][1][q] = self.index(&pairs[a][q], &ta);
+                }
+            }
+        }
+        true
+    }
+}
+
+#[inline(always)]
+fn gather<T: Real>(buf: &[T], idx: &L<u32>) -> L<T> {
+    let mut v = [T::ZERO; LANES];
+    for l in 0..LANES {
+        // SAFETY: every index is `2·offset_l + f + 2·(e mod size_l)` < `2·n_entries`, and the
+        // callers assert `buf.len() >= n_params = 2·n_entries`.
+        v[l] = unsafe { *buf.get_unchecked(idx[l] as usize) };
+    }
+    v
+}
+
+#[inline(always)]
+fn scatter_add<T: Real>(buf: &mut [T], idx: &L<u32>, v: &L<T>) {
+    for l in 0..LANES {
+        // SAFETY: as in `gather`. Lanes of one call never alias (distinct levels or features);
+        // calls are sequential.
+        unsafe { *buf.get_unchecked_mut(idx[l] as usize) += v[l] };
+    }
+}
+
+#[inline(always)]
+fn prefetch<T>(buf: &[T], i: u32) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let p = buf.as_ptr().wrapping_add(i as usize) as *const i8;
+        // SAFETY: a prefetch is a hint; it never faults, whatever the address.
+        #[allow(unused_unsafe)]
+        unsafe {
+            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p)
+        };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (buf, i);
+    }
+}
+
+/// Face values `[face 0, face 1]` of axis `a` from the centre corners, and the bilinear weights
+/// of that axis' faces.
+#[inline(always)]
+fn faces<T: Real>(w: &[[L<T>; 2]; 3], a: usize) -> [L<T>; 4] {
+    let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+    let mut wq = [[T::ZERO; LANES]; 4];
+    for q in 0..4 {
+        for l in 0..LANES {
+            wq[q][l] = w[b][q & 1][l] * w[c][q >> 1][l];
+        }
+    }
+    wq
+}
+
+/// Forward of one block for one sample from its plan; `rows[p]` is the start of point `p`'s
+/// 16 values.
+#[inline(always)]
+fn block_forward<T: Real>(
+    blk: &LaneBlock,
+    k: &LaneConsts<T>,
+    pl: &Plan<T>,
+    table: &[T],
+    out: &mut [T],
+    rows: &[usize; 7],
+) {
+    let cv: [L<T>; 8] = std::array::from_fn(|c| gather(table, &pl.ce[c]));
+    let n = 2 * blk.n_levels;
+    for a in 0..3 {
+        let wq = faces(&pl.w, a);
+        let mut f0 = [T::ZERO; LANES];
+        let mut f1 = [T::ZERO; LANES];
+        for q in 0..4 {
+            let (c0, c1) = (corner(a, 0, q), corner(a, 1, q));
+            for l in 0..LANES {
+                f0[l] += wq[q][l] * cv[c0][l];
+                f1[l] += wq[q][l] * cv[c1][l];
+            }
+        }
+        if a == 0 {
+            let mut v = [T::ZERO; LANES];
+            for l in 0..LANES {
+                let x = pl.w[0][0][l] * f0[l] + pl.w[0][1][l] * f1[l];
+                v[l] = if k.act[l] != 0 { x } else { T::ZERO };
+            }
+            out[rows[0]..rows[0] + n].copy_from_slice(&v[..n]);
+        }
+        for p in 0..2 {
+            let mut ff = [T::ZERO; LANES];
+            if pl.any_far[a][p] {
+                for q in 0..4 {
+                    let fv = gather(table, &pl.fe[a][p][q]);
+                    for l in 0..LANES {
+                        ff[l] += wq[q][l] * fv[l];
+                    }
+                }
+            }
+            let mut v = [T::ZERO; LANES];
+            let (ft, farm) = (&pl.ft[a][p], &pl.far_m[a][p]);
+            for l in 0..LANES {
+                let t = ft[l];
+                let far = farm[l] != 0;
+                // + tap: (f0, f1) or (f1, far); − tap: (f0, f1) or (far, f0).
+                let (lo, hi) = if p == 0 {
+                    (
+                        if far { f1[l] } else { f0[l] },
+                        if far { ff[l] } else { f1[l] },
+                    )
+                } else {
+                    (
+                        if far { ff[l] } else { f0[l] },
+                        if far { f0[l] } else { f1[l] },
+                    )
+                };
+                let x = (T::ONE - t) * lo + t * hi;
+                v[l] = if k.act[l] != 0 { x } else { T::ZERO };
+            }
+            let r = rows[1 + 2 * a + p];
+            out[r..r + n].copy_from_slice(&v[..n]);
+        }
+    }
+}
+
+/// Backward of one block for one sample from its plan: scatter-adds the gradient of the 16
+/// values of each of the seven points (`d_out[rows[p]..]`) into `grad`.
+#[inline(always)]
+fn block_backward<T: Real>(
+    blk: &LaneBlock,
+    k: &LaneConsts<T>,
+    pl: &Plan<T>,
+    grad: &mut [T],
+    d_out: &[T],
+    rows: &[usize; 7],
+) {
+    let n = 2 * blk.n_levels;
+    let load = |r: usize| -> L<T> {
+        let mut g = [T::ZERO; LANES];
+        if n == LANES {
+            g.copy_from_slice(&d_out[r..r + LANES]);
+        } else {
+            g[..n].copy_from_slice(&d_out[r..r + n]);
+        }
+        for l in 0..LANES {
+            g[l] = if k.act[l] != 0 { g[l] } else { T::ZERO };
+        }
+        g
+    };
+    let mut dc = [[T::ZERO; LANES]; 8];
+    for a in 0..3 {
+        let wq = faces(&pl.w, a);
+        let mut d0 = [T::ZERO; LANES];
+        let mut d1 = [T::ZERO; LANES];
+        if a == 0 {
+            let g = load(rows[0]);
+            for l in 0..LANES {
+                d0[l] = pl.w[0][0][l] * g[l];
+                d1[l] = pl.w[0][1][l] * g[l];
+            }
+        }
+        for p in 0..2 {
+            let g = load(rows[1 + 2 * a + p]);
+            let mut dfar = [T::ZERO; LANES];
+            let (ft, farm) = (&pl.ft[a][p], &pl.far_m[a][p]);
+            for l in 0..LANES {
+                let t = ft[l];
+                let (glo, ghi) = ((T::ONE - t) * g[l], t * g[l]);
+                let far = farm[l] != 0;
+                let z = T::ZERO;
+                if p == 0 {
+                    // (f0, f1) ← (glo, ghi), or (f1, far) ← (glo, ghi).
+                    d0[l] += if far { z } else { glo };
+                    d1[l] += if far { glo } else { ghi };
+                    dfar[l] = if far { ghi } else { z };
+                } else {
+                    // (f0, f1) ← (glo, ghi), or (far, f0) ← (glo, ghi).
+                    d0[l] += if far { ghi } else { glo };
+                    d1[l] += if far { z } else { ghi };
+                    dfar[l] = if far { glo } else { z };
+                }
+            }
+            if pl.any_far[a][p] {
+                for q in 0..4 {
+                    let mut v = [T::ZERO; LANES];
+                    for l in 0..LANES {
+                        v[l] = wq[q][l] * dfar[l];
+                    }
+                    scatter_add(grad, &pl.fe[a][p][q], &v);
+                }
+            }
+        }
+        for q in 0..4 {
+            let (c0, c1) = (corner(a, 0, q), corner(a, 1, q));
+            for l in 0..LANES {
+                dc[c0][l] += wq[q][l] * d0[l];
+                dc[c1][l] += wq[q][l] * d1[l];
+            }
+        }
+    }
+    for c in 0..8 {
+        scatter_add(grad, &pl.ce[c], &dc[c]);
+    }
+}
+
+/// Prefetches what [`block_forward`] / [`block_backward`] will touch for a sample: the centre
+/// cell's four x-rows and the far faces of the y and z taps that leave it (x taps stay in the
+/// centre's rows or the next entries).
+#[inline(always)]
+fn block_prefetch<T: Real>(blk: &LaneBlock, pl: &Plan<T>, buf: &[T]) {
+    let n = 2 * blk.n_levels;
+    for c in [0usize, 2, 4, 6] {
+        for l in (0..n).step_by(2) {
+            prefetch(buf, pl.ce[c][l]);
+        }
+    }
+    for a in 1..3 {
+        for p in 0..2 {
+            if pl.any_far[a][p] {
+                for q in 0..4 {
+                    if corner(a, 0, q) & 1 != 0 {
+                        continue;
+                    }
+                    // Lanes whose tap stays in the cell prefetch a centre line again: harmless.
+                    for l in (0..n).step_by(2) {
+                        prefetch(buf, pl.fe[a][p][q][l]);
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl HashGrid {
+    fn unit_stencil<T: Real>(x: [T; 3], taps: [[T; 2]; 3], radius: T) -> ([T; 3], [[T; 2]; 3]) {
+        let inv = T::ONE / (radius + radius);
+        let uc = [0, 1, 2].map(|a| (x[a] + radius) * inv);
+        let ut = [0, 1, 2].map(|a| [(taps[a][0] + radius) * inv, (taps[a][1] + radius) * inv]);
+        (uc, ut)
+    }
+
+    /// Batched [`encode_fd`](Self::encode_fd) over the samples of a chunk: sample `i`'s centre
+    /// `xs[i]` and taps `taps[i]`, rows from `rows(i)`. Uses the level-parallel blocks when
+    /// `F = 2` (falling back per sample when a tap moves more than one cell), planning each
+    /// sample [`PREFETCH_AHEAD`] samples before its use and prefetching what it will read. Same
+    /// values as calling [`encode_fd`](Self::encode_fd) per sample up to rounding (tested).
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_fd_batch<T: Real>(
+        &self,
+        table: &[T],
+        xs: &[[T; 3]],
+        taps: &[[[T; 2]; 3]],
+        radius: T,
+        active: usize,
+        out: &mut [T],
+        rows: impl Fn(usize) -> [usize; 7],
+    ) {
+        self.fd_batch(table, xs, taps, radius, active, out, &rows);
+    }
+
+    /// Batched [`encode_fd_backward`](Self::encode_fd_backward) (see
+    /// [`encode_fd_batch`](Self::encode_fd_batch)): scatter-adds into `grad`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_fd_backward_batch<T: Real>(
+        &self,
+        xs: &[[T; 3]],
+        taps: &[[[T; 2]; 3]],
+        radius: T,
+        active: usize,
+        d_out: &[T],
+        rows: impl Fn(usize) -> [usize; 7],
+        grad: &mut [T],
+    ) {
+        self.fd_batch_bwd(xs, taps, radius, active, d_out, &rows, grad);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fd_batch<T: Real>(
+        &self,
+        table: &[T],
+        xs: &[[T; 3]],
+        taps: &[[[T; 2]; 3]],
+        radius: T,
+        active: usize,
+        out: &mut [T],
+        rows: &dyn Fn(usize) -> [usize; 7],
+    ) {
+        assert!(table.len() >= self.n_params() && taps.len() == xs.len());
+        let Some(blocks) = self.lane_blocks() else {
+            for i in 0..xs.len() {
+                self.encode_fd(table, xs[i], taps[i], radius, active, out, &rows(i));
+            }
+            return;
+        };
+        let xd = self.xyz_dim();
+        let nb = blocks.len();
+        let consts: Vec<LaneConsts<T>> = blocks.iter().map(|b| b.consts(active)).collect();
+        let live = blocks.iter().filter(|b| b.level0 < active).count();
+        // Ring of plans: sample i's plans live in slot i % RING.
+        let mut ring: Vec<Plan<T>> = vec![Plan::default(); RING * nb];
+        let mut ok_ring = [true; RING];
+        let plan = |i: usize, ring: &mut [Plan<T>], ok: &mut [bool; RING]| {
+            let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
+            let slot = i % RING;
+            let mut good = true;
+            for (bi, blk) in blocks.iter().enumerate().take(live) {
+                let pl = &mut ring[slot * nb + bi];
+                good &= blk.plan(&consts[bi], uc, ut, true, pl);
+                if good {
+                    block_prefetch(blk, pl, table);
+                }
+            }
+            ok[slot] = good;
+        };
+        for i in 0..xs.len().min(PREFETCH_AHEAD) {
+            plan(i, &mut ring, &mut ok_ring);
+        }
+        for i in 0..xs.len() {
+            if i + PREFETCH_AHEAD < xs.len() {
+                plan(i + PREFETCH_AHEAD, &mut ring, &mut ok_ring);
+            }
+            let r = rows(i);
+            let slot = i % RING;
+            if !ok_ring[slot] {
+                // Rare: the whole sample through the per-level path.
+                self.encode_fd(table, xs[i], taps[i], radius, active, out, &r);
+                continue;
+            }
+            for (bi, blk) in blocks.iter().enumerate() {
+                let br = r.map(|v| v + xd + 2 * blk.level0);
+                if bi >= live {
+                    for p in 0..7 {
+                        out[br[p]..br[p] + 2 * blk.n_levels].fill(T::ZERO);
+                    }
+                    continue;
+                }
+                block_forward(blk, &consts[bi], &ring[slot * nb + bi], table, out, &br);
+            }
+            if self.include_xyz {
+                for p in 0..7 {
+                    let pt = fd_point(xs[i], taps[i], p);
+                    for d in 0..3 {
+                        out[r[p] + d] = pt[d] / radius;
+                    }
+                }
+            }
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fd_batch_bwd<T: Real>(
+        &self,
+        xs: &[[T; 3]],
+        taps: &[[[T; 2]; 3]],
+        radius: T,
+        active: usize,
+        d_out: &[T],
+        rows: &dyn Fn(usize) -> [usize; 7],
+        grad: &mut [T],
+    ) {
+        assert!(grad.len() >= self.n_params() && taps.len() == xs.len());
+        let Some(blocks) = self.lane_blocks() else {
+            for i in 0..xs.len() {
+                self.encode_fd_backward(xs[i], taps[i], radius, active, d_out, &rows(i), grad);
+            }
+            return;
+        };
+        let xd = self.xyz_dim();
+        let nb = blocks.len();
+        let consts: Vec<LaneConsts<T>> = blocks.iter().map(|b| b.consts(active)).collect();
+        let live = blocks.iter().filter(|b| b.level0 < active).count();
+        let mut ring: Vec<Plan<T>> = vec![Plan::default(); RING * nb];
+        let mut ok_ring = [true; RING];
+        let plan = |i: usize, ring: &mut [Plan<T>], ok: &mut [bool; RING], grad: &[T]| {
+            let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
+            let slot = i % RING;
+            let mut good = true;
+            for (bi, blk) in blocks.iter().enumerate().take(live) {
+                let pl = &mut ring[slot * nb + bi];
+                good &= blk.plan(&consts[bi], uc, ut, true, pl);
+                if good {
+                    block_prefetch(blk, pl, grad);
+                }
+            }
+            ok[slot] = good;
+        };
+        for i in 0..xs.len().min(PREFETCH_AHEAD) {
+            plan(i, &mut ring, &mut ok_ring, grad);
+        }
+        for i in 0..xs.len() {
+            if i + PREFETCH_AHEAD < xs.len() {
+                plan(i + PREFETCH_AHEAD, &mut ring, &mut ok_ring, grad);
+            }
+            let r = rows(i);
+            let slot = i % RING;
+            if !ok_ring[slot] {
+                self.encode_fd_backward(xs[i], taps[i], radius, active, d_out, &r, grad);
+                continue;
+            }
+            for (bi, blk) in blocks.iter().enumerate().take(live) {
+                let br = r.map(|v| v + xd + 2 * blk.level0);
+                block_backward(blk, &consts[bi], &ring[slot * nb + bi], grad, d_out, &br);
+            }
+        }
+    }
+}
+
+/// Samples between planning (and prefetching) a sample and encoding it.
+const PREFETCH_AHEAD: usize = 8;
+/// Plan slots: the samples in flight plus the one in use.
+const RING: usize = PREFETCH_AHEAD + 1;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::config::HashGridConfig;
+    use crate::field::hashgrid::fd_points;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    /// The batched level-parallel path against the naive reference, forward and backward, on
+    /// grids with a partial last block, dense and hashed levels, with and without the xyz prefix:
+    /// taps one cell away on fine levels, inside the cell, several cells away (per-sample
+    /// fallback), at the box faces, and every progressive mask.
+    #[test]
+    fn batch_matches_naive() {
+        let mut rng = Pcg64Mcg::seed_from_u64(23);
+        let mut worst = 0.0f64;
+        for (n_levels, log2, include_xyz) in [(11usize, 12u32, true), (16, 10, false), (3, 8, true)]
+        {
+            let g = HashGrid::new(&HashGridConfig {
+                n_levels,
+                n_features_per_level: 2,
+                log2_hashmap_size: log2,
+                base_resolution: 4.0,
+                per_level_scale: 1.45,
+                include_xyz,
+                ..Default::default()
+            });
+            assert!(g.lane_blocks().is_some());
+            let table: Vec<f64> = (0..g.n_params())
+                .map(|_| rng.random_range(-1.0..1.0))
+                .collect();
+            let r = 0.8;
+            let d = g.output_dim();
+            for active in [n_levels, 1, n_levels / 2 + 1] {
+                let n = 64;
+                let mut xs = Vec::new();
+                let mut taps = Vec::new();
+                for i in 0..n {
+                    let mut c = [0.0; 3];
+                    for v in c.iter_mut() {
+                        *v = rng.random_range(-r..r);
+                    }
+                    if i % 9 == 0 {
+                        c = [r, -r, rng.random_range(-r..r)];
+                    }
+                    let eps = match i % 4 {
+                        0 | 1 => g.fd_eps(active, r),
+                        2 => 0.3 * g.fd_eps(active, r),
+                        _ => 0.2, // several cells: per-sample fallback
+                    };
+                    xs.push(c);
+                    taps.push([0, 1, 2].map(|a| [(c[a] + eps).min(r), (c[a] - eps).max(-r)]));
+                }
+                let rows = |i: usize| -> [usize; 7] {
+                    let b = n + 6 * i;
+                    [
+                        i * d,
+                        b * d,
+                        (b + 1) * d,
+                        (b + 2) * d,
+                        (b + 3) * d,
+                        (b + 4) * d,
+                        (b + 5) * d,
+                    ]
+                };
+                let mut out = vec![7.0; 7 * n * d];
+                g.encode_fd_batch(&table, &xs, &taps, r, active, &mut out, rows);
+                let dout: Vec<f64> = (0..7 * n * d)
+                    .map(|_| rng.random_range(-1.0..1.0))
+                    .collect();
+                let mut gf = vec![0.0; g.n_params()];
+                g.encode_fd_backward_batch(&xs, &taps, r, active, &dout, rows, &mut gf);
+                let mut gn = vec![0.0; g.n_params()];
+                for i in 0..n {
+                    let pts = fd_points(xs[i], taps[i]);
+                    let rw = rows(i);
+                    for p in 0..7 {
+                        let want = g.encode_naive(&table, pts[p], r, active);
+                        for j in 0..d {
+                            worst = worst.max((want[j] - out[rw[p] + j]).abs());
+                        }
+                        g.encode_backward_naive(
+                            pts[p],
+                            r,
+                            active,
+                            &dout[rw[p]..rw[p] + d],
+                            &mut gn,
+                        );
+                    }
+                }
+                for (a, b) in gf.iter().zip(&gn) {
+                    worst = worst.max((a - b).abs());
+                }
+            }
+        }
+        assert!(worst < 1e-12, "level-parallel vs naive max diff {worst}");
+    }
+}
