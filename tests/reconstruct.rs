@@ -1,68 +1,15 @@
 //! `neus-aug reconstruct` end to end on a tiny synthetic scene: determinism, kill and resume,
 //! outputs, and a clear error (with no complete-looking output) for each kind of bad input.
 
-use neus_aug::scene::sim;
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::tiny::{neus_aug, scene as tiny_scene};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
-use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-/// A tiny built-in-like scene (8 views at 48×36, coarse ground truth), generated once.
-fn tiny_scene() -> &'static Path {
-    static SCENE: OnceLock<PathBuf> = OnceLock::new();
-    SCENE.get_or_init(|| {
-        let mut desc = sim::builtin("blob").unwrap();
-        desc.rig.views = 8;
-        desc.rig.resolution = [48, 36];
-        desc.render.spp = 1;
-        desc.gt.spacing_mm = 1.0;
-        desc.gt.obs_res_mm = 4.0;
-        let root = tempfile::tempdir().unwrap().keep();
-        let dir = root.join("tiny");
-        sim::generate(&desc, &dir, &Default::default()).unwrap();
-        dir
-    })
-}
-
-/// A configuration small enough for a test: a few dozen steps of a tiny network.
-const TINY: &str = r#"
-preset = "fast"
-[data]
-holdout = 1
-render_downscale = 2
-[train]
-iterations = 24
-checkpoint_every = 4
-[train.lr]
-warmup_steps = 0
-constant_steps = 12
-[model.field.hash_grid]
-n_levels = 6
-log2_hashmap_size = 12
-base_resolution = 8.0
-per_level_scale = 1.5
-[model.render]
-num_samples_per_ray = 64
-train_num_rays = 64
-max_train_num_rays = 256
-shards = 2
-[model.render.occupancy]
-resolution = 16
-[mesh]
-coarse_res = 24
-fine_res = 32
-"#;
-
-fn write_config(dir: &Path, extra: &str) -> PathBuf {
-    let p = dir.join("tiny.toml");
-    std::fs::write(&p, format!("{TINY}\n{extra}")).unwrap();
-    p
-}
-
-fn neus_aug() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_neus-aug"));
-    c.env("RAYON_NUM_THREADS", "2");
-    c
+fn write_config(dir: &Path, extra: &str) -> std::path::PathBuf {
+    common::tiny::write_config(dir, 24, extra)
 }
 
 fn reconstruct(config: &Path, out: &Path, extra: &[&str]) -> Output {
@@ -138,6 +85,26 @@ fn same_seed_gives_the_same_mesh_and_all_outputs_exist() {
             "axis {k}: {mid} vs {}",
             c[k]
         );
+    }
+    // The checkpoint loads in Python (safetensors' numpy back end) and matches the config.
+    let py = Command::new("python3").arg("--version").output();
+    if py.is_ok_and(|o| o.status.success()) {
+        let o = Command::new("python3")
+            .arg(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/scripts/check_checkpoint.py"
+            ))
+            .arg(&a)
+            .args(["--expect-step", "24"])
+            .output()
+            .unwrap();
+        let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+        assert!(
+            o.status.success() && text.contains("OK: checkpoint loads"),
+            "{text}"
+        );
+    } else {
+        eprintln!("SKIPPED the Python checkpoint check: python3 is not installed");
     }
     // A different seed trains differently.
     let d = tmp.path().join("d");

@@ -4,74 +4,20 @@
 //! configuration, a tampered run) is refused with a clear message. Plus the collector on
 //! fabricated results with known statistics (no training).
 
+mod common;
+
+use common::tiny::{neus_aug, scene as tiny_scene};
 use neus_aug::augment::AugMode;
 use neus_aug::reconstruct::Preset;
-use neus_aug::scene::sim;
 use neus_aug::study::plan::{make_plan, run_dir, run_state, RunState, StudyPlan};
 use neus_aug::study::{collect, Grid, StudyOptions};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
-use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-/// A tiny built-in-like scene (8 views at 48×36, coarse ground truth), generated once.
-fn tiny_scene() -> &'static Path {
-    static SCENE: OnceLock<PathBuf> = OnceLock::new();
-    SCENE.get_or_init(|| {
-        let mut desc = sim::builtin("blob").unwrap();
-        desc.rig.views = 8;
-        desc.rig.resolution = [48, 36];
-        desc.render.spp = 1;
-        desc.gt.spacing_mm = 1.0;
-        desc.gt.obs_res_mm = 4.0;
-        let root = tempfile::tempdir().unwrap().keep();
-        let dir = root.join("tiny");
-        sim::generate(&desc, &dir, &Default::default()).unwrap();
-        dir
-    })
-}
-
-/// A few dozen steps of a tiny network, a coarse mesh.
-const TINY: &str = r#"
-preset = "fast"
-[data]
-holdout = 1
-render_downscale = 2
-[train]
-iterations = 40
-checkpoint_every = 4
-[train.lr]
-warmup_steps = 0
-constant_steps = 20
-[model.field.hash_grid]
-n_levels = 6
-log2_hashmap_size = 12
-base_resolution = 8.0
-per_level_scale = 1.5
-[model.render]
-num_samples_per_ray = 64
-train_num_rays = 64
-max_train_num_rays = 256
-shards = 2
-cos_anneal_end = 40
-[model.render.occupancy]
-resolution = 16
-[mesh]
-coarse_res = 24
-fine_res = 32
-"#;
-
 fn write_config(dir: &Path) -> PathBuf {
-    let p = dir.join("tiny.toml");
-    std::fs::write(&p, TINY).unwrap();
-    p
-}
-
-fn neus_aug() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_neus-aug"));
-    c.env("RAYON_NUM_THREADS", "2");
-    c
+    common::tiny::write_config(dir, 40, "")
 }
 
 /// `neus-aug study table2` on the tiny scene.

@@ -252,16 +252,16 @@ impl Preset {
             Preset::Default => {
                 model.field.hash_grid.log2_hashmap_size = 17;
                 model.render.num_samples_per_ray = 512;
-                model.render.train_num_rays = 128;
+                model.render.train_num_rays = 64;
                 model.render.max_train_num_rays = 4096;
                 model.render.occupancy.resolution = 64;
-                train.iterations = 6000;
+                train.iterations = 5000;
                 train.lr.constant_steps = 1500;
                 train.lr.warmup_steps = 200;
                 train.checkpoint_every = 500;
-                model.render.cos_anneal_end = 6000;
+                model.render.cos_anneal_end = 5000;
                 mesh.coarse_res = 128;
-                mesh.fine_res = 384;
+                mesh.fine_res = 512;
             }
             Preset::Fast => {
                 model.field.hash_grid.log2_hashmap_size = 16;

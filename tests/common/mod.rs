@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests: small random scenes in the DTU layout.
 #![allow(dead_code)]
 
+pub mod tiny;
+
 use nalgebra::{Matrix3, Vector3};
 use neus_aug::scene::{write_scene, Camera, GrayImage, Normalization, RgbImage, ViewOut};
 use rand::{Rng, SeedableRng};
