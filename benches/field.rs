@@ -20,7 +20,6 @@
 //! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
 //! `NEUS_AUG_BENCH_QUICK=1` runs only the default network's training iteration.
 
-use neus_aug::field::mlp::{linear_forward, linear_forward_naive};
 use neus_aug::field::HashGridConfig;
 use neus_aug::render::{ModelConfig, NeusModel, PhaseTimes, RayBatch, Targets};
 use neus_aug::train::{AdamW, AdamWConfig};
@@ -138,38 +137,168 @@ fn fma_peak() -> f64 {
     flops / cpu * threads as f64
 }
 
-fn gemm_compare() {
+/// The SDF network's hidden layer on a chunk's rows (256 samples × 7 points): the product alone,
+/// with the fused Softplus, and the whole forward + backward of the layer.
+fn sdf_layer_parts() {
+    use neus_aug::field::mlp::{linear_forward, MlpTape};
+    use neus_aug::field::{Activation, Mlp};
+    let mlp = Mlp::new(vec![35, 64, 13], Activation::Softplus { beta: 100.0 });
+    let mut rng = Pcg64Mcg::seed_from_u64(4);
+    let p: Vec<f32> = (0..mlp.n_params())
+        .map(|_| rng.random_range(-0.3..0.3))
+        .collect();
+    let rows = 1792;
+    let x: Vec<f32> = (0..rows * 35)
+        .map(|_| rng.random_range(-1.0..1.0))
+        .collect();
+    let mut y = vec![0f32; rows * 64];
+    let mut tape = MlpTape::default();
+    let mut g = vec![0f32; mlp.n_params()];
+    let mut dh = vec![0f32; rows * 64];
+    let mut scratch = Vec::new();
+    let mut dx = vec![0f32; rows * 35];
+    let mut best = [f64::MAX; 3];
+    for _ in 0..20 {
+        for (v, b) in best.iter_mut().enumerate() {
+            let t = Instant::now();
+            for _ in 0..20 {
+                match v {
+                    0 => linear_forward(
+                        &p[..64 * 35],
+                        &p[64 * 35..64 * 36],
+                        &x,
+                        rows,
+                        35,
+                        64,
+                        &mut y,
+                    ),
+                    1 => mlp.forward_hidden(&p, &x, rows, &mut tape),
+                    _ => {
+                        dh.fill(0.01);
+                        mlp.backward_hidden_cols(
+                            &p,
+                            &mut g,
+                            &x,
+                            rows,
+                            &tape,
+                            &mut dh,
+                            &mut scratch,
+                            Some((&mut dx, 3..35)),
+                        );
+                    }
+                }
+                black_box(&y);
+            }
+            *b = b.min(t.elapsed().as_secs_f64() / (20 * rows / 7) as f64);
+        }
+    }
+    let mut sp = f64::MAX;
+    let mut d = vec![0f32; rows * 64];
+    for _ in 0..20 {
+        let t = Instant::now();
+        for _ in 0..20 {
+            for (v, dv) in y.iter_mut().zip(d.iter_mut()) {
+                let (a, s) = neus_aug::field::fastmath::softplus_f32(*v, 100.0);
+                *v = a;
+                *dv = s;
+            }
+            black_box(&y);
+        }
+        sp = sp.min(t.elapsed().as_secs_f64() / (20 * rows / 7) as f64);
+    }
+    println!("  softplus alone: {:.3} us/sample", sp * 1e6);
+    let fl = 2.0 * 7.0 * 35.0 * 64.0;
+    println!(
+        "  SDF hidden layer per sample (7 rows): product {:.3} us ({:.0} GFLOP/s), + Softplus {:.3} us, backward (dW, dX grid cols, dz) {:.3} us ({:.0} GFLOP/s)",
+        1e6 * best[0],
+        fl / best[0] / 1e9,
+        1e6 * best[1],
+        1e6 * best[2],
+        (2.0 * fl - 2.0 * 7.0 * 3.0 * 64.0) / best[2] / 1e9
+    );
+}
+
+fn gemm_compare(peak: f64) {
+    use neus_aug::field::dense::{gemm, gemm_reference, Strided};
+    let threads = rayon::current_num_threads() as f64;
     let mut rng = Pcg64Mcg::seed_from_u64(1);
     println!(
-        "\n== MLP layers: linear_forward vs naive loops (one thread, f32, GFLOP/s per CPU s) =="
+        "\n== MLP products, one thread, f32, GFLOP/s (best of 5 runs; per-core FMA peak {:.0}) ==",
+        peak / threads / 1e9
     );
-    for &(n, di, d_o) in &[
-        (3584usize, 35usize, 64usize),
-        (512, 64, 13),
-        (512, 64, 64),
-        (512, 32, 64),
+    println!("  shape                          register kernel  matrixmultiply  naive loops");
+    for &(m, k, n, tr, name) in &[
+        (3584usize, 35usize, 64usize, false, "fwd  [3584 x 35] -> 64"),
+        (512, 64, 64, false, "fwd  [512 x 64] -> 64"),
+        (3584, 64, 32, false, "dX   [3584 x 64] -> 32"),
+        (35, 3584, 64, true, "dW   64 x 35 over 3584 rows"),
+        (512, 64, 13, false, "fwd  [512 x 64] -> 13"),
+        (512, 35, 64, false, "fwd  [512 x 35] -> 64"),
+        (3584, 64, 64, false, "fwd  [3584 x 64] -> 64"),
+        (36, 3584, 64, true, "dW   64 x 36 over 3584 rows"),
     ] {
-        let w: Vec<f32> = (0..di * d_o).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let b: Vec<f32> = (0..d_o).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let x: Vec<f32> = (0..n * di).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let mut y = vec![0f32; n * d_o];
-        let flops = 2.0 * (n * di * d_o) as f64;
-        let reps = (1e9 / flops).ceil() as usize;
-        let c = Clock::start();
-        for _ in 0..reps {
-            linear_forward(&w, &b, &x, n, di, d_o, &mut y);
-            black_box(&y);
+        let a: Vec<f32> = (0..m * k).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let b: Vec<f32> = (0..k * n).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let mut c = vec![0f32; m * n];
+        let sa = if tr {
+            Strided {
+                data: &a[..],
+                rs: 1,
+                cs: m,
+            }
+        } else {
+            Strided {
+                data: &a[..],
+                rs: k,
+                cs: 1,
+            }
+        };
+        let flops = 2.0 * (m * k * n) as f64;
+        let reps = (4e9 / flops).ceil() as usize;
+        let mut g = [0.0f64; 3];
+        for (v, gv) in g.iter_mut().enumerate() {
+            let reps = if v == 2 { reps.div_ceil(32) } else { reps };
+            // Best of 5 wall-clock runs (~20 ms each): robust to preemption by other load.
+            for _ in 0..5 {
+                let t = Instant::now();
+                for _ in 0..reps {
+                    match v {
+                        0 => gemm(
+                            m,
+                            k,
+                            n,
+                            sa,
+                            &b,
+                            n,
+                            &mut c,
+                            n,
+                            neus_aug::field::dense::Init::Zero,
+                        ),
+                        1 => gemm_reference(m, k, n, sa, &b, n, &mut c, n, false),
+                        _ => {
+                            for i in 0..m {
+                                for j in 0..n {
+                                    let mut s = 0.0;
+                                    for kk in 0..k {
+                                        s += a[i * sa.rs + kk * sa.cs] * b[kk * n + j];
+                                    }
+                                    c[i * n + j] = s;
+                                }
+                            }
+                        }
+                    }
+                    black_box(&c);
+                }
+                *gv = gv.max(flops * reps as f64 / t.elapsed().as_secs_f64() / 1e9);
+            }
         }
-        let g_mm = flops * reps as f64 / c.stop().1 / 1e9;
-        let c = Clock::start();
-        for _ in 0..reps.div_ceil(8) {
-            linear_forward_naive(&w, &b, &x, n, di, d_o, &mut y);
-            black_box(&y);
-        }
-        let g_nv = flops * reps.div_ceil(8) as f64 / c.stop().1 / 1e9;
         println!(
-            "  [{n} x {di}] -> {d_o}: linear_forward {g_mm:6.1}, naive {g_nv:6.1}, ratio {:.1}x",
-            g_mm / g_nv
+            "  {name:<30} {:7.1} ({:3.0}%)   {:7.1} ({:3.0}%)   {:7.1}",
+            g[0],
+            100.0 * g[0] * threads / (peak / 1e9),
+            g[1],
+            100.0 * g[1] * threads / (peak / 1e9),
+            g[2]
         );
     }
 }
@@ -637,6 +766,35 @@ fn main() {
         hash_paths(&m, &p);
         return;
     }
+    if std::env::var("NEUS_AUG_BENCH_STEP_ONLY").is_ok() {
+        // Profiling aid (callgrind): two training steps of the default network on 64 rays
+        // without an occupancy grid, then one AdamW step.
+        let model = NeusModel::new(ModelConfig::default()).unwrap();
+        let params = model.init_params(0);
+        let rays = rays_towards_sphere(64, 3);
+        let batch = RayBatch {
+            origins: &rays.origins,
+            dirs: &rays.dirs,
+            codes: &[],
+            p: &[],
+        };
+        let t = Targets {
+            rgb: &rays.rgb,
+            mask: Some(&rays.mask),
+        };
+        let mut grads = vec![0f32; params.len()];
+        let sched = model.config.schedule(1000);
+        for k in 0..2 {
+            let o = model
+                .train_step(&params, &mut grads, &batch, &t, sched, None, k)
+                .unwrap();
+            println!("{} samples", o.n_samples);
+        }
+        let mut params = params;
+        let mut opt = AdamW::new(AdamWConfig::default(), params.len());
+        opt.step(&mut params, &grads, &model.layout, 1.0).unwrap();
+        return;
+    }
     let threads = rayon::current_num_threads();
     println!(
         "neus-aug field bench: {threads} rayon threads, load average {} at start",
@@ -644,10 +802,21 @@ fn main() {
     );
     let peak = fma_peak();
     if std::env::var("NEUS_AUG_BENCH_QUICK").is_err() {
-        gemm_compare();
+        gemm_compare(peak);
+        sdf_layer_parts();
+    }
+    if std::env::var("NEUS_AUG_BENCH_GEMM_ONLY").is_ok() {
+        return;
     }
 
-    let (model, st) = train_iterations(ModelConfig::default(), secs, true);
+    let mut cfg = ModelConfig::default();
+    if let Some(c) = std::env::var("NEUS_AUG_CHUNK")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        cfg.render.chunk_samples = c;
+    }
+    let (model, st) = train_iterations(cfg, secs, true);
     let sps = report(
         "default network (L=16, F=2, T=2^19, 64-wide)",
         &model,

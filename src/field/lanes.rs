@@ -379,14 +379,14 @@ fn block_forward<T: Real>(
         for q in 0..4 {
             let (c0, c1) = (corner(a, 0, q), corner(a, 1, q));
             for l in 0..LANES {
-                f0[l] += wq[q][l] * cv[c0][l];
-                f1[l] += wq[q][l] * cv[c1][l];
+                f0[l] = wq[q][l].fma(cv[c0][l], f0[l]);
+                f1[l] = wq[q][l].fma(cv[c1][l], f1[l]);
             }
         }
         if a == 0 {
             let mut v = [T::ZERO; LANES];
             for l in 0..LANES {
-                let x = pl.w[0][0][l] * f0[l] + pl.w[0][1][l] * f1[l];
+                let x = pl.w[0][0][l].fma(f0[l], pl.w[0][1][l] * f1[l]);
                 v[l] = if k.act[l] != 0 { x } else { T::ZERO };
             }
             out[rows[0]..rows[0] + n].copy_from_slice(&v[..n]);
@@ -397,7 +397,7 @@ fn block_forward<T: Real>(
                 for q in 0..4 {
                     let fv = gather(table, &pl.fe[a][p][q]);
                     for l in 0..LANES {
-                        ff[l] += wq[q][l] * fv[l];
+                        ff[l] = wq[q][l].fma(fv[l], ff[l]);
                     }
                 }
             }
@@ -418,7 +418,7 @@ fn block_forward<T: Real>(
                         if far { f0[l] } else { f1[l] },
                     )
                 };
-                let x = (T::ONE - t) * lo + t * hi;
+                let x = (T::ONE - t).fma(lo, t * hi);
                 v[l] = if k.act[l] != 0 { x } else { T::ZERO };
             }
             let r = rows[1 + 2 * a + p];
@@ -497,8 +497,8 @@ fn block_backward<T: Real>(
         for q in 0..4 {
             let (c0, c1) = (corner(a, 0, q), corner(a, 1, q));
             for l in 0..LANES {
-                dc[c0][l] += wq[q][l] * d0[l];
-                dc[c1][l] += wq[q][l] * d1[l];
+                dc[c0][l] = wq[q][l].fma(d0[l], dc[c0][l]);
+                dc[c1][l] = wq[q][l].fma(d1[l], dc[c1][l]);
             }
         }
     }

@@ -14,6 +14,7 @@
 // Numeric kernels index several parallel arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
 
+use super::dense::{self, Init, Strided};
 use super::Real;
 use rand::Rng;
 use rand_distr::{Distribution, Normal};
@@ -61,7 +62,80 @@ impl Activation {
     }
 }
 
-/// `y[n][d_out] = x[n][d_in] · W[d_out][d_in]ᵀ + b` through the GEMM.
+/// Widths the register kernels of [`dense`] specialise.
+fn fast_width(w: usize) -> bool {
+    matches!(w, 16 | 32 | 64)
+}
+
+/// `Wᵀ` (`[d_in][d_out]`, the k-major operand of the register kernel) of `W [d_out][d_in]`.
+fn transpose<T: Real>(w: &[T], d_in: usize, d_out: usize) -> Vec<T> {
+    let mut wt = vec![T::ZERO; d_in * d_out];
+    for o in 0..d_out {
+        for i in 0..d_in {
+            wt[i * d_out + o] = w[o * d_in + i];
+        }
+    }
+    wt
+}
+
+/// `y[n][d_out] = x[n][d_in] · W[d_out][d_in]ᵀ + b`, then `post(row, y_row)` on each output row
+/// (fused activations). Register kernel ([`dense`]) for output widths 16/32/64, `matrixmultiply`
+/// otherwise.
+#[allow(clippy::too_many_arguments)]
+pub fn linear_forward_then<T: Real, F: FnMut(usize, &mut [T])>(
+    w: &[T],
+    b: &[T],
+    x: &[T],
+    n: usize,
+    d_in: usize,
+    d_out: usize,
+    y: &mut [T],
+    post: F,
+) {
+    assert!(w.len() >= d_out * d_in && b.len() >= d_out);
+    assert!(x.len() >= n * d_in && y.len() >= n * d_out);
+    let a = Strided {
+        data: x,
+        rs: d_in,
+        cs: 1,
+    };
+    if fast_width(d_out) {
+        let wt = transpose(&w[..d_out * d_in], d_in, d_out);
+        dense::gemm_then(n, d_in, d_out, a, &wt, d_out, y, d_out, Init::Bias(b), post);
+    } else {
+        // W row-major is Wᵀ with strides (1, d_in): matrixmultiply takes any strides.
+        for row in y[..n * d_out].chunks_exact_mut(d_out) {
+            row.copy_from_slice(&b[..d_out]);
+        }
+        if n > 0 && d_in > 0 {
+            // SAFETY: sizes checked above; A = x (n×d_in), B = Wᵀ (d_in×d_out), C = y (n×d_out).
+            unsafe {
+                T::gemm(
+                    n,
+                    d_in,
+                    d_out,
+                    T::ONE,
+                    x.as_ptr(),
+                    d_in as isize,
+                    1,
+                    w.as_ptr(),
+                    1,
+                    d_in as isize,
+                    T::ONE,
+                    y.as_mut_ptr(),
+                    d_out as isize,
+                    1,
+                );
+            }
+        }
+        let mut post = post;
+        for (i, row) in y[..n * d_out].chunks_exact_mut(d_out).enumerate() {
+            post(i, row);
+        }
+    }
+}
+
+/// `y[n][d_out] = x[n][d_in] · W[d_out][d_in]ᵀ + b` (see [`linear_forward_then`]).
 pub fn linear_forward<T: Real>(
     w: &[T],
     b: &[T],
@@ -71,30 +145,7 @@ pub fn linear_forward<T: Real>(
     d_out: usize,
     y: &mut [T],
 ) {
-    assert!(w.len() >= d_out * d_in && b.len() >= d_out);
-    assert!(x.len() >= n * d_in && y.len() >= n * d_out);
-    for row in y[..n * d_out].chunks_exact_mut(d_out) {
-        row.copy_from_slice(&b[..d_out]);
-    }
-    // SAFETY: sizes checked above; A = x (n×d_in, row-major), B = Wᵀ (d_in×d_out, W row-major).
-    unsafe {
-        T::gemm(
-            n,
-            d_in,
-            d_out,
-            T::ONE,
-            x.as_ptr(),
-            d_in as isize,
-            1,
-            w.as_ptr(),
-            1,
-            d_in as isize,
-            T::ONE,
-            y.as_mut_ptr(),
-            d_out as isize,
-            1,
-        );
-    }
+    linear_forward_then(w, b, x, n, d_in, d_out, y, |_, _| {});
 }
 
 /// Slow reference of [`linear_forward`]: three nested loops.
@@ -132,56 +183,81 @@ pub fn linear_backward<T: Real>(
     gb: &mut [T],
     dx: Option<&mut [T]>,
 ) {
+    linear_backward_cols(w, x, dy, n, d_in, d_out, gw, gb, dx.map(|d| (d, 0..d_in)));
+}
+
+/// [`linear_backward`] computing only the input-gradient columns `cols` of
+/// `dx [n][d_in]` (the others are left as they are): the SDF network's hash-grid columns, whose
+/// width the register kernels specialise, skipping the xyz columns nothing consumes.
+#[allow(clippy::too_many_arguments)]
+pub fn linear_backward_cols<T: Real>(
+    w: &[T],
+    x: &[T],
+    dy: &[T],
+    n: usize,
+    d_in: usize,
+    d_out: usize,
+    gw: &mut [T],
+    gb: &mut [T],
+    dx: Option<(&mut [T], std::ops::Range<usize>)>,
+) {
     assert!(w.len() >= d_out * d_in && gw.len() >= d_out * d_in && gb.len() >= d_out);
     assert!(x.len() >= n * d_in && dy.len() >= n * d_out);
     if n == 0 {
         return;
     }
-    // SAFETY: sizes checked above. gw (d_out×d_in) += dyᵀ (d_out×n) · x (n×d_in).
-    unsafe {
-        T::gemm(
-            d_out,
-            n,
-            d_in,
-            T::ONE,
-            dy.as_ptr(),
-            1,
-            d_out as isize,
-            x.as_ptr(),
-            d_in as isize,
-            1,
-            T::ONE,
-            gw.as_mut_ptr(),
-            d_in as isize,
-            1,
-        );
+    // gw (d_out×d_in) += dyᵀ (d_out×n) · x (n×d_in).
+    let dyt = Strided {
+        data: dy,
+        rs: 1,
+        cs: d_out,
+    };
+    if fast_width(d_in) || !fast_width(d_out) {
+        dense::gemm(d_out, n, d_in, dyt, x, d_in, gw, d_in, Init::Accumulate);
+    } else {
+        // gwᵀ (d_in×d_out) = xᵀ · dy with the register kernel, then added transposed.
+        let xt = Strided {
+            data: x,
+            rs: 1,
+            cs: d_in,
+        };
+        let mut t = vec![T::ZERO; d_in * d_out];
+        dense::gemm(d_in, n, d_out, xt, dy, d_out, &mut t, d_out, Init::Zero);
+        for o in 0..d_out {
+            for i in 0..d_in {
+                gw[o * d_in + i] += t[i * d_out + o];
+            }
+        }
     }
     for row in dy[..n * d_out].chunks_exact(d_out) {
         for (g, &d) in gb[..d_out].iter_mut().zip(row) {
             *g += d;
         }
     }
-    if let Some(dx) = dx {
-        assert!(dx.len() >= n * d_in);
-        // SAFETY: dx (n×d_in) = dy (n×d_out) · W (d_out×d_in).
-        unsafe {
-            T::gemm(
-                n,
-                d_out,
-                d_in,
-                T::ONE,
-                dy.as_ptr(),
-                d_out as isize,
-                1,
-                w.as_ptr(),
-                d_in as isize,
-                1,
-                T::ZERO,
-                dx.as_mut_ptr(),
-                d_in as isize,
-                1,
-            );
+    if let Some((dx, cols)) = dx {
+        assert!(dx.len() >= n * d_in && cols.end <= d_in);
+        if cols.is_empty() {
+            return;
         }
+        // dx[:, cols] (n×|cols|) = dy (n×d_out) · W[:, cols] (d_out×|cols|).
+        let a = Strided {
+            data: dy,
+            rs: d_out,
+            cs: 1,
+        };
+        let width = cols.len();
+        let c0 = cols.start;
+        dense::gemm(
+            n,
+            d_out,
+            width,
+            a,
+            &w[c0..],
+            d_in,
+            &mut dx[c0..],
+            d_in,
+            Init::Zero,
+        );
     }
 }
 
@@ -299,29 +375,35 @@ impl Mlp {
             let (w, b) = self.wb(p, l);
             let mut y = std::mem::take(&mut tape.acts[l]);
             y.resize(n * d_out, T::ZERO);
+            let mut dv = std::mem::take(&mut tape.deriv[l]);
+            dv.resize(n * d_out, T::ZERO);
             {
                 let input: &[T] = if l == 0 { x } else { &tape.acts[l - 1] };
-                linear_forward(w, b, input, n, d_in, d_out, &mut y);
-            }
-            let dv = &mut tape.deriv[l];
-            dv.resize(n * d_out, T::ZERO);
-            match self.hidden {
-                Activation::Relu => {
-                    for (v, d) in y.iter_mut().zip(dv.iter_mut()) {
-                        let pos = *v > T::ZERO;
-                        *v = if pos { *v } else { T::ZERO };
-                        *d = if pos { T::ONE } else { T::ZERO };
+                // The activation and its derivative, fused into the product's epilogue.
+                let hidden = self.hidden;
+                let dvs = &mut dv[..];
+                linear_forward_then(w, b, input, n, d_in, d_out, &mut y, |i, row| {
+                    let d = &mut dvs[i * d_out..(i + 1) * d_out];
+                    match hidden {
+                        Activation::Relu => {
+                            for (v, d) in row.iter_mut().zip(d.iter_mut()) {
+                                let pos = *v > T::ZERO;
+                                *v = if pos { *v } else { T::ZERO };
+                                *d = if pos { T::ONE } else { T::ZERO };
+                            }
+                        }
+                        Activation::Softplus { beta } => {
+                            let b = T::from_f32(beta);
+                            for (v, d) in row.iter_mut().zip(d.iter_mut()) {
+                                let (a, s) = T::softplus_and_grad(*v, b);
+                                *v = a;
+                                *d = s;
+                            }
+                        }
                     }
-                }
-                Activation::Softplus { beta } => {
-                    let b = T::from_f32(beta);
-                    for (v, d) in y.iter_mut().zip(dv.iter_mut()) {
-                        let (a, s) = T::softplus_and_grad(*v, b);
-                        *v = a;
-                        *d = s;
-                    }
-                }
+                });
             }
+            tape.deriv[l] = dv;
             tape.acts[l] = y;
         }
     }
@@ -367,7 +449,25 @@ impl Mlp {
         tape: &MlpTape<T>,
         d_h: &mut Vec<T>,
         scratch: &mut Vec<T>,
-        mut d_x: Option<&mut [T]>,
+        d_x: Option<&mut [T]>,
+    ) {
+        let cols = 0..self.dims[0];
+        self.backward_hidden_cols(p, g, x, n, tape, d_h, scratch, d_x.map(|d| (d, cols)));
+    }
+
+    /// [`backward_hidden`](Self::backward_hidden) writing only the input-gradient columns `cols`
+    /// of `d_x [n][dims[0]]` (see [`linear_backward_cols`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn backward_hidden_cols<T: Real>(
+        &self,
+        p: &[T],
+        g: &mut [T],
+        x: &[T],
+        n: usize,
+        tape: &MlpTape<T>,
+        d_h: &mut Vec<T>,
+        scratch: &mut Vec<T>,
+        mut d_x: Option<(&mut [T], std::ops::Range<usize>)>,
     ) {
         let nh = self.n_layers() - 1;
         for l in (0..nh).rev() {
@@ -383,7 +483,8 @@ impl Mlp {
                 linear_backward(w, input, d_h, n, d_in, d_out, gw, gb, Some(scratch));
                 std::mem::swap(d_h, scratch);
             } else {
-                linear_backward(w, input, d_h, n, d_in, d_out, gw, gb, d_x.as_deref_mut());
+                let dx = d_x.as_mut().map(|(d, c)| (&mut **d, c.clone()));
+                linear_backward_cols(w, input, d_h, n, d_in, d_out, gw, gb, dx);
             }
         }
     }

@@ -74,7 +74,7 @@ impl Default for RenderConfig {
             occupancy: OccupancyConfig::default(),
             train_num_rays: 256,
             max_train_num_rays: 8192,
-            chunk_samples: 2048,
+            chunk_samples: 256,
             shards: 0,
         }
     }
@@ -1237,7 +1237,9 @@ impl NeusModel {
                 .backward_last(p.sdf, g.sdf, &h[n * wh..], 6 * n, 1, &sc.d_tap, dh_t);
         }
         sc.d_enc.resize(7 * n * d, T::ZERO);
-        self.sdf_mlp.backward_hidden(
+        // Only the hash-grid columns of the input gradient: the xyz prefix has no parameters.
+        let grid_cols = self.grid.xyz_dim()..d;
+        self.sdf_mlp.backward_hidden_cols(
             p.sdf,
             g.sdf,
             &sc.enc,
@@ -1245,7 +1247,7 @@ impl NeusModel {
             &sc.sdf_tape,
             &mut sc.d_h,
             &mut sc.tmp,
-            Some(&mut sc.d_enc),
+            Some((&mut sc.d_enc, grid_cols)),
         );
         times.sdf_mlp_bwd += t_sb.elapsed().as_secs_f64();
 
