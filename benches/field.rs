@@ -21,6 +21,11 @@
 //! `NEUS_AUG_BENCH_QUICK=1` runs only the default network's training iteration.
 
 use neus_aug::field::HashGridConfig;
+
+/// Cache-line aligned large buffers (the hash table's locality needs it; see
+/// `neus_aug::field::alloc`).
+#[global_allocator]
+static ALLOC: neus_aug::field::alloc::LargeAligned = neus_aug::field::alloc::LargeAligned;
 use neus_aug::render::{ModelConfig, NeusModel, PhaseTimes, RayBatch, Targets};
 use neus_aug::train::{AdamW, AdamWConfig};
 use rand::{Rng, SeedableRng};

@@ -308,23 +308,32 @@ impl LaneBlock {
     }
 }
 
+/// The 16 lane values at `idx`: 8 pairs (the two features of a level are adjacent, lane
+/// `2j + 1` reads `idx[2j] + 1`), loaded as 8 two-element reads.
 #[inline(always)]
 fn gather<T: Real>(buf: &[T], idx: &L<u32>) -> L<T> {
     let mut v = [T::ZERO; LANES];
-    for l in 0..LANES {
-        // SAFETY: every index is `2·offset_l + f + 2·(e mod size_l)` < `2·n_entries`, and the
-        // callers assert `buf.len() >= n_params = 2·n_entries`.
-        v[l] = unsafe { *buf.get_unchecked(idx[l] as usize) };
+    for j in 0..LANES / 2 {
+        // SAFETY: every index is `2·offset_l + 2·(e mod size_l)` (+1 for the odd lane) <
+        // `2·n_entries`, and the callers assert `buf.len() >= n_params = 2·n_entries`.
+        let pair = unsafe { *(buf.as_ptr().add(idx[2 * j] as usize) as *const [T; 2]) };
+        v[2 * j] = pair[0];
+        v[2 * j + 1] = pair[1];
     }
     v
 }
 
+/// Adds the 16 lane values at `idx` (8 pair read-modify-writes, see [`gather`]).
 #[inline(always)]
 fn scatter_add<T: Real>(buf: &mut [T], idx: &L<u32>, v: &L<T>) {
-    for l in 0..LANES {
-        // SAFETY: as in `gather`. Lanes of one call never alias (distinct levels or features);
-        // calls are sequential.
-        unsafe { *buf.get_unchecked_mut(idx[l] as usize) += v[l] };
+    for j in 0..LANES / 2 {
+        // SAFETY: as in `gather`. Pairs of one call never alias (distinct levels); calls are
+        // sequential.
+        unsafe {
+            let p = &mut *(buf.as_mut_ptr().add(idx[2 * j] as usize) as *mut [T; 2]);
+            p[0] += v[2 * j];
+            p[1] += v[2 * j + 1];
+        }
     }
 }
 

@@ -12,6 +12,7 @@
 //! Reference facts: `../shared/DESIGN.md` §5, instant-nsr-pl `models/geometry.py`,
 //! `models/network_utils.py`, `models/texture.py`, `configs/neus-dtu-wmask.yaml`.
 
+pub mod alloc;
 pub mod config;
 pub mod dense;
 pub mod fastmath;
