@@ -98,7 +98,7 @@ mod tests {
         unsafe {
             let big = Layout::from_size_align(THRESHOLD + 12, 4).unwrap();
             let p = a.alloc_zeroed(big);
-            assert!(!p.is_null() && p as usize % ALIGN == 0);
+            assert!(!p.is_null() && (p as usize).is_multiple_of(ALIGN));
             assert!((0..big.size()).step_by(4099).all(|i| *p.add(i) == 0));
             a.dealloc(p, big);
             let small = Layout::from_size_align(1000, 4).unwrap();
@@ -107,7 +107,7 @@ mod tests {
                 *q.add(i) = (i % 251) as u8;
             }
             let q = a.realloc(q, small, THRESHOLD * 2);
-            assert!(q as usize % ALIGN == 0);
+            assert!((q as usize).is_multiple_of(ALIGN));
             assert!((0..1000).all(|i| *q.add(i) == (i % 251) as u8));
             let grown = Layout::from_size_align(THRESHOLD * 2, 4).unwrap();
             let q = a.realloc(q, grown, 500);
