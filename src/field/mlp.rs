@@ -102,6 +102,38 @@ pub fn linear_forward_then<T: Real, F: FnMut(usize, &mut [T])>(
     if fast_width(d_out) {
         let wt = transpose(&w[..d_out * d_in], d_in, d_out);
         dense::gemm_then(n, d_in, d_out, a, &wt, d_out, y, d_out, Init::Bias(b), post);
+    } else if d_out < 16 {
+        // Narrow outputs (the SDF network's 13 channels, the colour network's 3): zero-padded to
+        // 16 columns for the register kernel, then copied out.
+        const P: usize = 16;
+        let mut wt = vec![T::ZERO; d_in * P];
+        let mut bp = [T::ZERO; P];
+        bp[..d_out].copy_from_slice(&b[..d_out]);
+        for o in 0..d_out {
+            for i in 0..d_in {
+                wt[i * P + o] = w[o * d_in + i];
+            }
+        }
+        let mut t = vec![T::ZERO; n * P];
+        let mut post = post;
+        dense::gemm_then(
+            n,
+            d_in,
+            P,
+            a,
+            &wt,
+            P,
+            &mut t,
+            P,
+            Init::Bias(&bp),
+            |i, row| post(i, &mut row[..d_out]),
+        );
+        for (yr, tr) in y[..n * d_out]
+            .chunks_exact_mut(d_out)
+            .zip(t.chunks_exact(P))
+        {
+            yr.copy_from_slice(&tr[..d_out]);
+        }
     } else {
         // W row-major is Wᵀ with strides (1, d_in): matrixmultiply takes any strides.
         for row in y[..n * d_out].chunks_exact_mut(d_out) {
@@ -367,6 +399,20 @@ impl Mlp {
 
     /// Runs all hidden layers on `x [n][dims[0]]`, storing their outputs in `tape`.
     pub fn forward_hidden<T: Real>(&self, p: &[T], x: &[T], n: usize, tape: &mut MlpTape<T>) {
+        self.forward_hidden_with(p, x, n, tape, |_, _| {});
+    }
+
+    /// [`forward_hidden`](Self::forward_hidden) calling `last(row, h_row)` on each row of the
+    /// last hidden layer's output as it is produced (still in registers): the place for cheap
+    /// per-row products such as one output channel (`h · W_last[0] + b`).
+    pub fn forward_hidden_with<T: Real, F: FnMut(usize, &[T])>(
+        &self,
+        p: &[T],
+        x: &[T],
+        n: usize,
+        tape: &mut MlpTape<T>,
+        mut last: F,
+    ) {
         let nh = self.n_layers() - 1;
         tape.acts.resize_with(nh, Vec::new);
         tape.deriv.resize_with(nh, Vec::new);
@@ -382,6 +428,7 @@ impl Mlp {
                 // The activation and its derivative, fused into the product's epilogue.
                 let hidden = self.hidden;
                 let dvs = &mut dv[..];
+                let is_last = l + 1 == nh;
                 linear_forward_then(w, b, input, n, d_in, d_out, &mut y, |i, row| {
                     let d = &mut dvs[i * d_out..(i + 1) * d_out];
                     match hidden {
@@ -401,11 +448,41 @@ impl Mlp {
                             }
                         }
                     }
+                    if is_last {
+                        last(i, row);
+                    }
                 });
             }
             tape.deriv[l] = dv;
             tape.acts[l] = y;
         }
+    }
+
+    /// Output channel `c` of the last (linear) layer for one row of the last hidden activation:
+    /// `h · W_last[c] + b_last[c]` (for [`forward_hidden_with`](Self::forward_hidden_with)).
+    #[inline(always)]
+    pub fn output_channel<T: Real>(&self, p: &[T], c: usize, h: &[T]) -> T {
+        let l = self.n_layers() - 1;
+        let (w, b) = self.wb(p, l);
+        let d = self.dims[l];
+        let wr = &w[c * d..(c + 1) * d];
+        // 16 partial sums (one vector register for f32) instead of one serial FMA chain.
+        let mut acc = [T::ZERO; 16];
+        let (hc, wc) = (h[..d].chunks_exact(16), wr.chunks_exact(16));
+        let (hr, wrr) = (hc.remainder(), wc.remainder());
+        for (hh, ww) in hc.zip(wc) {
+            for k in 0..16 {
+                acc[k] = hh[k].fma(ww[k], acc[k]);
+            }
+        }
+        for (k, (hv, wv)) in hr.iter().zip(wrr).enumerate() {
+            acc[k] = hv.fma(*wv, acc[k]);
+        }
+        let mut s = T::ZERO;
+        for v in acc {
+            s += v;
+        }
+        s + b[c]
     }
 
     /// Last (linear) layer on rows of the last hidden activation `h [n][last_hidden_dim]`,
@@ -525,27 +602,37 @@ mod tests {
     #[test]
     fn mlp_backward_matches_central_differences() {
         let mut rng = Pcg64Mcg::seed_from_u64(2);
-        for act in [Activation::Relu, Activation::Softplus { beta: 3.0 }] {
-            let mlp = Mlp::new(vec![5, 7, 6, 3], act);
+        // Odd widths (matrixmultiply paths), then the widths the register kernels specialise
+        // (16/32/64, padded narrow outputs, the transposed weight gradient of a 35-wide input).
+        let cases = [
+            (vec![5usize, 7, 6, 3], Activation::Relu),
+            (vec![5, 7, 6, 3], Activation::Softplus { beta: 3.0 }),
+            (vec![16, 32, 16, 3], Activation::Relu),
+            (vec![35, 64, 13], Activation::Softplus { beta: 3.0 }),
+        ];
+        for (dims, act) in cases {
+            let (d0, dl) = (dims[0], *dims.last().unwrap());
+            let dh_w = dims[dims.len() - 2];
+            let mlp = Mlp::new(dims, act);
             let n = 4;
             let mut p: Vec<f64> = (0..mlp.n_params())
-                .map(|_| rng.random_range(-1.0..1.0))
+                .map(|_| rng.random_range(-1.0..1.0) / (d0 as f64).sqrt())
                 .collect();
-            let x: Vec<f64> = (0..n * 5).map(|_| rng.random_range(-1.0..1.0)).collect();
-            let wout: Vec<f64> = (0..n * 3).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let x: Vec<f64> = (0..n * d0).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let wout: Vec<f64> = (0..n * dl).map(|_| rng.random_range(-1.0..1.0)).collect();
             let loss = |p: &[f64], x: &[f64]| -> f64 {
                 let mut tape = MlpTape::default();
                 mlp.forward_hidden(p, x, n, &mut tape);
-                let mut out = vec![0.0; n * 3];
-                mlp.forward_last(p, tape.acts.last().unwrap(), n, 3, &mut out);
+                let mut out = vec![0.0; n * dl];
+                mlp.forward_last(p, tape.acts.last().unwrap(), n, dl, &mut out);
                 out.iter().zip(&wout).map(|(a, b)| a * b).sum()
             };
             let mut tape = MlpTape::default();
             mlp.forward_hidden(&p, &x, n, &mut tape);
             let mut g = vec![0.0; mlp.n_params()];
-            let mut dh = vec![0.0; n * 6];
-            mlp.backward_last(&p, &mut g, tape.acts.last().unwrap(), n, 3, &wout, &mut dh);
-            let mut dx = vec![0.0; n * 5];
+            let mut dh = vec![0.0; n * dh_w];
+            mlp.backward_last(&p, &mut g, tape.acts.last().unwrap(), n, dl, &wout, &mut dh);
+            let mut dx = vec![0.0; n * d0];
             let mut scratch = Vec::new();
             mlp.backward_hidden(
                 &p,
