@@ -20,13 +20,13 @@
 //! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
 //! `NEUS_AUG_BENCH_QUICK=1` runs only the default network's training iteration.
 
-use neus_aug::field::HashGridConfig;
-
-/// Cache-line aligned large buffers (the hash table's locality needs it; see
+/// Cache-line aligned large buffers on huge pages, as the binary uses (see
 /// `neus_aug::field::alloc`).
 #[global_allocator]
 static ALLOC: neus_aug::field::alloc::LargeAligned = neus_aug::field::alloc::LargeAligned;
-use neus_aug::render::{ModelConfig, NeusModel, PhaseTimes, RayBatch, Targets};
+use neus_aug::render::model::next_num_rays;
+use neus_aug::render::rays::march_rays;
+use neus_aug::render::{ModelConfig, NeusModel, OccupancyGrid, PhaseTimes, RayBatch, Targets};
 use neus_aug::train::{AdamW, AdamWConfig};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -123,23 +123,29 @@ fn fma_thread(iters: u64) -> f64 {
     }
 }
 
-/// FMA peak of all threads (FLOP/s), per CPU second × threads (robust to other load).
+/// FMA peak of all threads (FLOP/s): best of three runs, per CPU second × threads (robust to
+/// other load on the machine).
 fn fma_peak() -> f64 {
     let threads = rayon::current_num_threads();
-    let iters = 40_000_000u64;
+    let iters = 20_000_000u64;
     fma_thread(iters / 100); // warm up
-    let c = Clock::start();
-    let flops: f64 = (0..threads)
-        .into_par_iter()
-        .map(|_| fma_thread(iters))
-        .sum();
-    let (w, cpu) = c.stop();
+    let mut best = (0.0f64, 0.0f64);
+    for _ in 0..3 {
+        let c = Clock::start();
+        let flops: f64 = (0..threads)
+            .into_par_iter()
+            .map(|_| fma_thread(iters))
+            .sum();
+        let (w, cpu) = c.stop();
+        best.0 = best.0.max(flops / w);
+        best.1 = best.1.max(flops / cpu * threads as f64);
+    }
     println!(
-        "== f32 FMA peak ({threads} threads): {:.1} GFLOP/s wall, {:.1} GFLOP/s CPU-time normalised ==",
-        flops / w / 1e9,
-        flops / cpu * threads as f64 / 1e9
+        "== f32 FMA peak ({threads} threads, AVX-512 FMA chains, best of 3): {:.1} GFLOP/s wall, {:.1} GFLOP/s CPU-time normalised ==",
+        best.0 / 1e9,
+        best.1 / 1e9
     );
-    flops / cpu * threads as f64
+    best.1
 }
 
 /// The SDF network's hidden layer on a chunk's rows (256 samples × 7 points): the product alone,
@@ -398,8 +404,7 @@ struct IterStats {
     steps: usize,
     samples: usize,
     rays: usize,
-    /// Wall seconds: zeroing, train_step, AdamW.
-    zero: f64,
+    /// Wall seconds in train_step and in AdamW (zeroing the gradients).
     step: f64,
     adam: f64,
     /// Wall and CPU seconds of the whole loop.
@@ -423,12 +428,11 @@ fn add_phases(a: &mut PhaseTimes, t: &PhaseTimes) {
 /// Sample budget of the reference (`train_num_rays · num_samples_per_ray`).
 const BUDGET: usize = 256 * 1024;
 
-/// Builds the model, parameters, occupancy grid and a batch whose ray count is converged to the
-/// sample budget, then runs whole training iterations for `secs` seconds.
-fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, IterStats) {
+/// A model with sphere-initialised parameters (grid columns of the first layer perturbed so the
+/// hash grid matters) and its occupancy grid after the first (all-cells) update, timed.
+fn setup(cfg: ModelConfig) -> (NeusModel, Vec<f32>, OccupancyGrid, (f64, f64)) {
     let model = NeusModel::new(cfg).expect("valid config");
     let mut params = model.init_params(0);
-    // Give the grid columns of the first layer some weight so the hash grid matters.
     let sdf = model.layout.group("sdf_mlp").unwrap().clone();
     let mut rng = Pcg64Mcg::seed_from_u64(9);
     for v in &mut params[sdf.range()] {
@@ -437,23 +441,34 @@ fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, I
     let mut occ = model.new_occupancy_grid();
     let c = Clock::start();
     model.update_occupancy(&params, &mut occ, 0, model.config.schedule(0), 0);
-    let (w, cpu) = c.stop();
-    if verbose {
-        println!(
-            "\n== occupancy update at warm-up (all {} cells): {:.2} s wall, {:.2} CPU s; {} points; occupied {:.1}% ==",
-            occ.n_cells(),
-            w,
-            cpu,
-            rate(occ.n_cells() as f64, w, cpu),
-            100.0 * occ.occupied_fraction()
-        );
-    }
+    let t = c.stop();
+    (model, params, occ, t)
+}
+
+/// Whole training iterations as the training loop runs them, for `secs` seconds: `train_step`
+/// on a batch whose ray count follows the dynamic rule towards the sample budget, then
+/// `AdamW::step_and_zero_grads` over all parameters.
+fn train_iterations(
+    model: &NeusModel,
+    params: &mut [f32],
+    occ: &OccupancyGrid,
+    secs: f64,
+) -> IterStats {
     let all = rays_towards_sphere(16384, 3);
     let sched = model.config.schedule(1000);
     let mut grads = vec![0f32; params.len()];
     let mut opt = AdamW::new(AdamWConfig::default(), params.len());
-    // Converge the dynamic ray count (these steps double as the warm-up).
-    let mut n_rays = model.config.render.train_num_rays;
+    // Start the ray count near its fixed point (samples per ray from marching alone).
+    let probe = march_rays(
+        &all.origins[..1024],
+        &all.dirs[..1024],
+        model.config.render.radius,
+        model.render_step_size(),
+        &[],
+        Some(occ),
+    );
+    let max_rays = model.config.render.max_train_num_rays;
+    let mut n_rays = (BUDGET * 1024 / probe.n_samples().max(1)).clamp(1, max_rays);
     let mut offset = 0usize;
     let mut take = |n: usize| {
         let n = n.min(all.origins.len());
@@ -464,28 +479,19 @@ fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, I
         offset += n;
         r
     };
-    let max_rays = model.config.render.max_train_num_rays;
-    for k in 0..12 {
-        let r = take(n_rays);
-        let rays = RayBatch {
-            origins: &all.origins[r.clone()],
-            dirs: &all.dirs[r.clone()],
-            codes: &[],
-            p: &[],
-        };
-        let t = Targets {
-            rgb: &all.rgb[r.clone()],
-            mask: Some(&all.mask[r]),
-        };
-        grads.fill(0.0);
-        let o = model
-            .train_step(&params, &mut grads, &rays, &t, sched, Some(&occ), k)
-            .unwrap();
-        n_rays = neus_aug::render::model::next_num_rays(n_rays, o.n_samples, BUDGET, max_rays);
-    }
     let mut st = IterStats::default();
-    let c = Clock::start();
-    while c.wall.elapsed().as_secs_f64() < secs || st.steps < 2 {
+    let mut clock = None;
+    let mut k = 0u64;
+    // Three warm-up iterations (allocations, page faults, ray count), then the measurement.
+    loop {
+        if k == 3 {
+            clock = Some(Clock::start());
+        }
+        if let Some(c) = &clock {
+            if c.wall.elapsed().as_secs_f64() >= secs && st.steps >= 2 {
+                break;
+            }
+        }
         let r = take(n_rays);
         let rays = RayBatch {
             origins: &all.origins[r.clone()],
@@ -497,45 +503,37 @@ fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, I
             rgb: &all.rgb[r.clone()],
             mask: Some(&all.mask[r]),
         };
-        let t0 = Instant::now();
         let t1 = Instant::now();
         let o = model
-            .train_step(
-                &params,
-                &mut grads,
-                &rays,
-                &t,
-                sched,
-                Some(&occ),
-                100 + st.steps as u64,
-            )
+            .train_step(params, &mut grads, &rays, &t, sched, Some(occ), k)
             .unwrap();
         let t2 = Instant::now();
-        // The gradients are zeroed inside the optimiser's pass (`step_and_zero_grads`).
-        opt.step_and_zero_grads(&mut params, &mut grads, &model.layout, 1.0)
+        opt.step_and_zero_grads(params, &mut grads, &model.layout, 1.0)
             .unwrap();
         let t3 = Instant::now();
-        st.zero += (t1 - t0).as_secs_f64();
-        st.step += (t2 - t1).as_secs_f64();
-        st.adam += (t3 - t2).as_secs_f64();
-        st.samples += o.n_samples;
-        st.rays += o.n_rays;
-        st.steps += 1;
-        add_phases(&mut st.phases, &o.times);
-        n_rays = neus_aug::render::model::next_num_rays(n_rays, o.n_samples, BUDGET, max_rays);
+        if clock.is_some() {
+            st.step += (t2 - t1).as_secs_f64();
+            st.adam += (t3 - t2).as_secs_f64();
+            st.samples += o.n_samples;
+            st.rays += o.n_rays;
+            st.steps += 1;
+            add_phases(&mut st.phases, &o.times);
+        }
+        n_rays = next_num_rays(n_rays, o.n_samples, BUDGET, max_rays);
+        k += 1;
     }
-    (st.wall, st.cpu) = c.stop();
-    black_box(&params);
-    (model, st)
+    (st.wall, st.cpu) = clock.expect("measured").stop();
+    st
 }
 
+/// Prints an iteration measurement; returns train_step samples/s on idle cores.
 fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: bool) -> f64 {
     let threads = rayon::current_num_threads() as f64;
     let n = st.samples as f64;
     // CPU share of the loop that the process got, used to normalise wall-clock parts.
     let share = (st.cpu / (st.wall * threads)).min(1.0);
     println!(
-        "\n== {label}: {} params, {} steps, {:.0} rays x {:.0} samples/ray = {:.0} samples/step ==",
+        "\n== {label}: {} params, {} iterations of {:.0} rays x {:.0} samples/ray = {:.0} samples ==",
         model.n_params(),
         st.steps,
         st.rays as f64 / st.steps as f64,
@@ -543,21 +541,20 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
         n / st.steps as f64
     );
     println!(
-        "  whole iteration (train_step + AdamW zeroing the grads): {} samples",
+        "  whole iteration (train_step + AdamW, zeroing the grads): {} samples",
         rate(n, st.wall, st.cpu)
     );
     let step_cpu = st.step * threads * share;
     println!(
-        "  train_step alone:                                  {} samples",
+        "  train_step alone:                                        {} samples",
         rate(n, st.step, step_cpu)
     );
-    let it = st.zero + st.step + st.adam;
+    let it = st.step + st.adam;
     println!(
-        "  per iteration: zero {:.1} ms ({:.1}%), train_step {:.1} ms ({:.1}%), AdamW {:.1} ms ({:.1}%) [wall; process got {:.0}% of {} cores]",
-        1e3 * st.zero / st.steps as f64,
-        100.0 * st.zero / it,
+        "  per iteration: train_step {:.0} ms ({:.1}%), AdamW over {} params {:.1} ms ({:.1}%) [wall; the process got {:.0}% of {} cores]",
         1e3 * st.step / st.steps as f64,
         100.0 * st.step / it,
+        model.n_params(),
         1e3 * st.adam / st.steps as f64,
         100.0 * st.adam / it,
         100.0 * share,
@@ -577,7 +574,7 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
             + p.sdf_mlp_bwd
             + p.encode_bwd;
         println!(
-            "  MLP work: {:.0} MACs/sample fwd + {:.0} bwd = {:.0} kFLOP/sample -> {:.1} GFLOP/s at the train_step rate = {:.1}% of the FMA peak",
+            "  MLP work: {:.0} MACs/sample forward + {:.0} backward = {:.0} kFLOP/sample -> {:.1} GFLOP/s at the train_step rate = {:.1}% of the FMA peak",
             f,
             b,
             flops / 1e3,
@@ -585,13 +582,15 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
             100.0 * sps_step * flops / peak
         );
         println!(
-            "  inside the MLP phases alone: {:.1} GFLOP/s per core = {:.1}% of the per-core peak",
+            "  inside the MLP phases (incl. activations, normals, colour input): {:.1} GFLOP/s per core = {:.1}% of the per-core peak",
             n * flops / (mlp_time * share) / 1e9,
             100.0 * n * flops / (mlp_time * share) / (peak / threads)
         );
-        println!("  where train_step's time goes (thread seconds summed over shards):");
+        println!(
+            "  where train_step's time goes (per sample, one core's time; shares of the phases):"
+        );
         for (name, v) in [
-            ("hash encode fwd (7 pts)", p.encode_fwd),
+            ("hash encode fwd (7 points)", p.encode_fwd),
             ("SDF MLP fwd", p.sdf_mlp_fwd),
             ("normals + colour MLP fwd", p.color_fwd),
             ("alpha + compositing + loss", p.render),
@@ -600,18 +599,18 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
             ("hash encode bwd (scatter)", p.encode_bwd),
         ] {
             println!(
-                "    {name:<30} {:6.2} us/sample {:5.1}%",
+                "    {name:<30} {:6.2} us {:5.1}%",
                 1e6 * v * share / n,
                 100.0 * v / cpu_phases
             );
         }
         println!(
-            "    {:<30} {:6.2} us/sample (serial)",
+            "    {:<30} {:6.2} us (serial, before the parallel part)",
             "ray marching",
             1e6 * p.sample * share / n
         );
         println!(
-            "    {:<30} {:6.2} us/sample (shard-gradient reduction, parallel)",
+            "    {:<30} {:6.2} us (summing the shard gradient buffers, parallel)",
             "reduce",
             1e6 * p.reduce * share / n
         );
@@ -620,20 +619,16 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
 }
 
 /// Sample points of a realistic batch (ray order) with their finite-difference taps.
-fn stencil_points(model: &NeusModel, params: &[f32], n_rays: usize) -> Vec<[[f32; 3]; 7]> {
-    let mut occ = model.new_occupancy_grid();
-    if std::env::var("NEUS_AUG_BENCH_HASH_ONLY").is_err() {
-        model.update_occupancy(params, &mut occ, 0, model.config.schedule(0), 0);
-    }
+fn stencil_points(model: &NeusModel, occ: &OccupancyGrid, n_rays: usize) -> Vec<[[f32; 3]; 7]> {
     let rays = rays_towards_sphere(n_rays, 11);
     let r = model.config.render.radius;
-    let s = neus_aug::render::rays::march_rays(
+    let s = march_rays(
         &rays.origins,
         &rays.dirs,
         r,
         model.render_step_size(),
         &[],
-        Some(&occ),
+        Some(occ),
     );
     let eps = model.fd_eps(model.grid.levels.len()) as f32;
     let mut out = Vec::with_capacity(s.n_samples());
@@ -653,16 +648,54 @@ fn stencil_points(model: &NeusModel, params: &[f32], n_rays: usize) -> Vec<[[f32
     out
 }
 
-/// The hash-grid encoding of a sample and its six taps, forward and backward, one thread:
-/// the general seven-point path (`encode_group`) against the stencil path (`encode_fd`),
-/// interleaved so both see the same machine load; best of several rounds.
-fn hash_paths(model: &NeusModel, params: &[f32]) {
-    let n_rays = if std::env::var("NEUS_AUG_BENCH_HASH_ONLY").is_ok() {
-        60
-    } else {
-        600
-    };
-    let pts = stencil_points(model, params, n_rays);
+/// Distinct 64-byte lines of the hash table the seven points of each sample touch (all levels),
+/// and how many of them the previous sample (the neighbour along the ray) did not touch: an
+/// estimate of the table traffic beyond the L1 cache. Index arithmetic written here again from
+/// the tcnn definition (independent of the library's).
+fn hash_lines(model: &NeusModel, pts: &[[[f32; 3]; 7]]) -> (f64, f64) {
+    let g = &model.grid;
+    let f = g.n_features;
+    let mut prev: Vec<u64> = Vec::new();
+    let (mut all, mut new) = (0usize, 0usize);
+    for sample in pts {
+        let mut lines: Vec<u64> = Vec::new();
+        for lvl in &g.levels {
+            for x in sample {
+                let pos: Vec<f64> = x
+                    .iter()
+                    .map(|&v| lvl.scale * ((v as f64 + 1.0) / 2.0) + 0.5)
+                    .collect();
+                for c in 0..8u64 {
+                    let q: Vec<u64> = (0..3)
+                        .map(|d| pos[d].floor() as u64 + ((c >> d) & 1))
+                        .collect();
+                    let e = if lvl.hashed {
+                        (q[0] ^ (q[1] * 2_654_435_761) ^ (q[2] * 805_459_861)) & 0xffff_ffff
+                    } else {
+                        let r = lvl.resolution as u64;
+                        q[0] + q[1] * r + q[2] * r * r
+                    } % lvl.size as u64;
+                    lines.push((lvl.offset as u64 + e) * 4 * f as u64 / 64);
+                }
+            }
+        }
+        lines.sort_unstable();
+        lines.dedup();
+        all += lines.len();
+        new += lines
+            .iter()
+            .filter(|l| prev.binary_search(l).is_err())
+            .count();
+        prev = lines;
+    }
+    (all as f64 / pts.len() as f64, new as f64 / pts.len() as f64)
+}
+
+/// The hash-grid encoding of a sample and its six taps, forward and backward, one thread: the
+/// general seven-point path (`encode_group`, eight corners per point, reusing the centre's cell),
+/// the per-level stencil (`encode_fd`) and the level-parallel batch (`encode_fd_batch`),
+/// interleaved so all see the same machine load; best of several rounds.
+fn hash_paths(model: &NeusModel, params: &[f32], pts: &[[[f32; 3]; 7]]) {
     let g = &model.grid;
     let d = g.output_dim();
     let table = &params[model.layout.group("hash_grid").unwrap().range()];
@@ -686,9 +719,9 @@ fn hash_paths(model: &NeusModel, params: &[f32]) {
     let rounds: usize = std::env::var("NEUS_AUG_ROUNDS")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(12);
+        .unwrap_or(8);
     let mut best = [f64::MAX; 6];
-    let part_len = 20000.min(pts.len() / 2);
+    let part_len = 16384.min(pts.len() / 2);
     for round in 0..rounds {
         let k0 = (round * part_len) % (pts.len() - part_len + 1);
         let part = &pts[k0..k0 + part_len];
@@ -741,21 +774,30 @@ fn hash_paths(model: &NeusModel, params: &[f32]) {
     }
     let us = best.map(|v| 1e6 * v);
     println!(
-        "  hash grid, one thread, {} samples x 7 points, us/sample (best of {rounds} rounds):\n    fwd: general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x the general path)\n    bwd: general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x)",
-        pts.len(),
-        us[0], us[1], us[2], us[0] / us[2], us[3], us[4], us[5], us[3] / us[5]
+        "  hash grid alone, one thread, {part_len} samples x 7 points, us/sample (best of {rounds} rounds):"
+    );
+    println!(
+        "    forward:  general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x the general path)",
+        us[0], us[1], us[2], us[0] / us[2]
+    );
+    println!(
+        "    backward: general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x)",
+        us[3],
+        us[4],
+        us[5],
+        us[3] / us[5]
     );
 }
 
-fn hash_traffic(model: &NeusModel) {
-    let g = &model.grid;
-    let table_mb = (g.n_params() * 4) as f64 / 1e6;
-    println!(
-        "  hash table {:.1} MB ({} levels, {} dense); gradient buffer the same; L3 32 MB",
-        table_mb,
-        g.levels.len(),
-        g.levels.iter().filter(|l| !l.hashed).count()
-    );
+/// Parameters perturbed as in `setup` (for models built without it).
+fn perturbed(model: &NeusModel) -> Vec<f32> {
+    let mut params = model.init_params(0);
+    let sdf = model.layout.group("sdf_mlp").unwrap().clone();
+    let mut rng = Pcg64Mcg::seed_from_u64(9);
+    for v in &mut params[sdf.range()] {
+        *v += rng.random_range(-0.01..0.01);
+    }
+    params
 }
 
 fn main() {
@@ -764,19 +806,21 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(6.0);
     if let Ok(l2) = std::env::var("NEUS_AUG_BENCH_HASH_ONLY") {
-        // Profiling aid (callgrind): only the hash-grid paths, table of 2^l2 entries per level.
+        // Profiling aid: only the hash-grid paths, tables of 2^l2 entries, no occupancy grid.
         let mut cfg = ModelConfig::default();
         cfg.field.hash_grid.log2_hashmap_size = l2.parse().expect("log2 table size");
+        cfg.render.occupancy.enabled = false;
         let m = NeusModel::new(cfg).unwrap();
-        let p = m.init_params(0);
-        hash_paths(&m, &p);
+        let p = perturbed(&m);
+        let occ = m.new_occupancy_grid();
+        hash_paths(&m, &p, &stencil_points(&m, &occ, 60));
         return;
     }
     if std::env::var("NEUS_AUG_BENCH_STEP_ONLY").is_ok() {
         // Profiling aid (callgrind): two training steps of the default network on 64 rays
         // without an occupancy grid, then one AdamW step.
         let model = NeusModel::new(ModelConfig::default()).unwrap();
-        let params = model.init_params(0);
+        let mut params = model.init_params(0);
         let rays = rays_towards_sphere(64, 3);
         let batch = RayBatch {
             origins: &rays.origins,
@@ -796,25 +840,24 @@ fn main() {
                 .unwrap();
             println!("{} samples", o.n_samples);
         }
-        let mut params = params;
         let mut opt = AdamW::new(AdamWConfig::default(), params.len());
-        opt.step(&mut params, &grads, &model.layout, 1.0).unwrap();
+        opt.step_and_zero_grads(&mut params, &mut grads, &model.layout, 1.0)
+            .unwrap();
         return;
     }
+    let quick = std::env::var("NEUS_AUG_BENCH_QUICK").is_ok();
     let threads = rayon::current_num_threads();
     println!(
         "neus-aug field bench: {threads} rayon threads, load average {} at start",
         loadavg()
     );
     let peak = fma_peak();
-    if std::env::var("NEUS_AUG_BENCH_QUICK").is_err() {
+    if !quick {
         gemm_compare(peak);
         sdf_layer_parts();
     }
-    if std::env::var("NEUS_AUG_BENCH_GEMM_ONLY").is_ok() {
-        return;
-    }
 
+    // The default network (DESIGN §5).
     let mut cfg = ModelConfig::default();
     if let Some(c) = std::env::var("NEUS_AUG_CHUNK")
         .ok()
@@ -822,65 +865,73 @@ fn main() {
     {
         cfg.render.chunk_samples = c;
     }
-    let (model, st) = train_iterations(cfg, secs, true);
+    let (model, mut params, occ, (w, cpu)) = setup(cfg);
+    println!(
+        "\n== SDF queries: occupancy update at warm-up (all {} cells, {:.1}% occupied after): {} points ==",
+        occ.n_cells(),
+        100.0 * occ.occupied_fraction(),
+        rate(occ.n_cells() as f64, w, cpu)
+    );
+    let st = train_iterations(&model, &mut params, &occ, secs);
     let sps = report(
-        "default network (L=16, F=2, T=2^19, 64-wide)",
+        "training iteration, default network (L=16, F=2, T=2^19, SDF 35->64->13, colour 32->64->64->3)",
         &model,
         &st,
         peak,
         true,
     );
-    hash_traffic(&model);
-    {
-        let mut params = model.init_params(0);
-        let sdf = model.layout.group("sdf_mlp").unwrap().clone();
-        let mut rng = Pcg64Mcg::seed_from_u64(9);
-        for v in &mut params[sdf.range()] {
-            *v += rng.random_range(-0.01..0.01);
-        }
-        hash_paths(&model, &params);
-        if let Ok(l2) = std::env::var("NEUS_AUG_SMALL_T") {
-            let mut cfg = ModelConfig::default();
-            cfg.field.hash_grid.log2_hashmap_size = l2.parse().unwrap();
-            let m = NeusModel::new(cfg).unwrap();
-            let p = m.init_params(0);
-            println!("  T = 2^{l2}:");
-            hash_paths(&m, &p);
-        }
-    }
     println!(
-        "  target 400k samples/s (train_step, 2 cores): {:.0}% of target",
+        "  target 400k samples/s (train_step, 2 idle cores): {:.0}% of target",
         100.0 * sps / 4e5
     );
-
-    if std::env::var("NEUS_AUG_BENCH_QUICK").is_ok() {
+    let pts = stencil_points(&model, &occ, 200);
+    let (lines, new) = hash_lines(&model, &pts[..pts.len().min(20000)]);
+    let g = &model.grid;
+    println!(
+        "  hash table {:.1} MB ({} levels, {} dense) + its gradient buffer(s), L3 32 MB: per sample the 7 points touch {:.0} distinct 64-B lines, {:.0} not touched by the previous sample; at the train_step rate that is ~{:.1} GB/s of table reads + {:.1} GB/s of gradient read-modify-write beyond L1",
+        (g.n_params() * 4) as f64 / 1e6,
+        g.levels.len(),
+        g.levels.iter().filter(|l| !l.hashed).count(),
+        lines,
+        new,
+        sps * new * 64.0 / 1e9,
+        sps * new * 128.0 / 1e9
+    );
+    if let Some(l) = std::fs::read_to_string("/proc/self/smaps_rollup")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("AnonHugePages"))
+                .map(String::from)
+        })
+    {
+        println!(
+            "  memory in transparent huge pages (LargeAligned allocator): {}",
+            l.split_whitespace().skip(1).collect::<Vec<_>>().join(" ")
+        );
+    }
+    if quick {
         println!("load average at end: {}", loadavg());
         return;
     }
+    hash_paths(&model, &params, &pts);
+
+    // Smaller tables, as CPU presets may use.
     for log2 in [17u32, 16] {
-        let cfg = ModelConfig {
-            field: neus_aug::field::FieldConfig {
-                hash_grid: HashGridConfig {
-                    log2_hashmap_size: log2,
-                    ..Default::default()
-                },
-                ..Default::default()
-            },
-            ..Default::default()
-        };
-        let (m, st) = train_iterations(cfg, secs / 2.0, false);
-        report(&format!("T = 2^{log2}"), &m, &st, peak, false);
+        let mut cfg = ModelConfig::default();
+        cfg.field.hash_grid.log2_hashmap_size = log2;
+        let (m, mut p, o, _) = setup(cfg);
+        let st = train_iterations(&m, &mut p, &o, secs / 2.0);
+        report(
+            &format!("T = 2^{log2}, otherwise default"),
+            &m,
+            &st,
+            peak,
+            false,
+        );
     }
 
     // Inference rendering (no backward) on the default model.
-    let mut params = model.init_params(0);
-    let sdf = model.layout.group("sdf_mlp").unwrap().clone();
-    let mut rng = Pcg64Mcg::seed_from_u64(9);
-    for v in &mut params[sdf.range()] {
-        *v += rng.random_range(-0.01..0.01);
-    }
-    let mut occ = model.new_occupancy_grid();
-    model.update_occupancy(&params, &mut occ, 0, model.config.schedule(0), 0);
     let rays = rays_towards_sphere(1024, 5);
     let batch = RayBatch {
         origins: &rays.origins,
@@ -898,26 +949,21 @@ fn main() {
     }
     let (w, cpu) = c.stop();
     println!(
-        "\n== render (forward only, FD normals, {} samples/batch): {} samples ==",
+        "\n== render (forward only, FD normals, {} samples per 1024 rays): {} samples ==",
         r.n_samples,
         rate((r.n_samples * k) as f64, w, cpu)
     );
     // SDF queries at random points (marching cubes and occupancy updates use the same path).
+    let mut rng = Pcg64Mcg::seed_from_u64(12);
     let pts: Vec<[f32; 3]> = (0..1 << 20)
-        .map(|_| {
-            [
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            ]
-        })
+        .map(|_| [0, 1, 2].map(|_| rng.random_range(-1.0..1.0)))
         .collect();
     black_box(model.sdf(&params, &pts[..1 << 14], 16));
     let c = Clock::start();
     black_box(model.sdf(&params, &pts, 16));
     let (w, cpu) = c.stop();
     println!(
-        "== sdf queries at random points: {} points ==",
+        "== sdf queries at random points (no locality): {} points ==",
         rate(pts.len() as f64, w, cpu)
     );
     println!("load average at end: {}", loadavg());

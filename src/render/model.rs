@@ -820,8 +820,8 @@ impl NeusModel {
         let bounds = self.chunks(&samples);
         let parts: Vec<Vec<RayResult>> = (0..bounds.len() - 1)
             .into_par_iter()
-            .map(|c| {
-                let mut scratch = Scratch::default();
+            // One scratch per rayon job split, reused across its chunks.
+            .map_init(Scratch::default, |scratch, c| {
                 let mut sums = Sums::default();
                 let mut times = PhaseTimes::default();
                 let mut out = Vec::new();
@@ -831,7 +831,7 @@ impl NeusModel {
                     &ctx,
                     bounds[c],
                     bounds[c + 1],
-                    &mut scratch,
+                    scratch,
                     &mut sums,
                     &mut times,
                     Some(&mut out),
