@@ -586,7 +586,7 @@ impl HashGrid {
     /// Batched [`encode_fd`](Self::encode_fd) over the samples of a chunk: sample `i`'s centre
     /// `xs[i]` and taps `taps[i]`, rows from `rows(i)`. Uses the level-parallel blocks when
     /// `F = 2` (falling back per sample when a tap moves more than one cell), planning each
-    /// sample [`PREFETCH_AHEAD`] samples before its use and prefetching what it will read. Same
+    /// sample 8 samples before its use and prefetching what it will read. Same
     /// values as calling [`encode_fd`](Self::encode_fd) per sample up to rounding (tested).
     #[allow(clippy::too_many_arguments)]
     pub fn encode_fd_batch<T: Real>(

@@ -7,10 +7,19 @@
 //! eikonal term `(|g| − 1)²`. With only first derivatives anywhere, every backward pass is first
 //! order (instant-nsr-pl `grad_type: finite_difference`).
 //!
-//! Work is split into fixed chunks of whole rays (`chunk_samples`), the chunks into `shards`
-//! contiguous groups run in parallel with rayon; each shard accumulates gradients in its own
-//! buffer (shard 0 directly in the caller's), and the buffers are summed in shard order. The bits
-//! of the result depend only on the inputs, the seed and `shards`, never on thread scheduling.
+//! Work is split into fixed chunks of whole rays (`chunk_samples`, 256 by default: a chunk's
+//! buffers stay in the L2 cache), the chunks into `shards` contiguous groups run in parallel with
+//! rayon; each shard accumulates gradients in its own buffer (shard 0 directly in the caller's),
+//! and the buffers are summed in shard order. The bits of the result depend only on the inputs,
+//! the seed and `shards`, never on thread scheduling. The shard buffers and scratch vectors are
+//! kept inside the model between steps (a cache behind a mutex, see `WorkspaceCache`), so a step
+//! allocates nothing of the parameter size.
+//!
+//! Hot paths (measured in `benches/field.rs`): the level-parallel finite-difference stencil of
+//! the hash grid ([`crate::field::lanes`]) with software prefetching, register-blocked MLP
+//! kernels ([`crate::field::dense`]) with fused activations, the SDF channel of the taps computed
+//! in the hidden layer's epilogue. The large buffers should come from
+//! [`crate::field::alloc::LargeAligned`] (cache-line alignment, huge pages).
 
 // Numeric kernels index several parallel arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
@@ -866,17 +875,19 @@ impl NeusModel {
         const CH: usize = 1024;
         out.par_chunks_mut(CH)
             .zip(points.par_chunks(CH))
-            .for_each(|(o, pts)| {
-                let n = pts.len();
-                let mut enc = vec![0f32; n * d];
-                self.grid.encode_batch(pg.hash, pts, r, active, &mut enc, d);
-                let mut tape = MlpTape::default();
-                // The SDF channel straight from the hidden layer's epilogue.
-                self.sdf_mlp
-                    .forward_hidden_with(pg.sdf, &enc, n, &mut tape, |i, h| {
-                        o[i] = self.sdf_mlp.output_channel(pg.sdf, 0, h);
-                    });
-            });
+            .for_each_init(
+                || (Vec::new(), MlpTape::default()),
+                |(enc, tape), (o, pts)| {
+                    let n = pts.len();
+                    enc.resize(n * d, 0f32);
+                    self.grid.encode_batch(pg.hash, pts, r, active, enc, d);
+                    // The SDF channel straight from the hidden layer's epilogue.
+                    self.sdf_mlp
+                        .forward_hidden_with(pg.sdf, &enc[..n * d], n, tape, |i, h| {
+                            o[i] = self.sdf_mlp.output_channel(pg.sdf, 0, h);
+                        });
+                },
+            );
         out
     }
 
