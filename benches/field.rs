@@ -1,29 +1,38 @@
-//! `cargo bench --bench field`: throughput of the NeuS field on the CPU.
+//! `cargo bench --bench field`: throughput of the NeuS field on the CPU (about 40 s on an idle
+//! 2-core machine, up to twice that on a loaded one).
 //!
 //! Prints (all inputs built outside the timed regions):
-//! 1. the machine's f32 FMA peak (AVX-512 FMA chains on every rayon thread);
-//! 2. the MLP layer kernels against the naive triple loop (the peer measured in the same run);
-//! 3. the whole training iteration as the training loop runs it, on a realistic batch: rays from
-//!    cameras around the unit sphere through a sphere SDF of radius 0.5, the occupancy grid after
-//!    its first update, the dynamic ray count converged to the reference sample budget
-//!    (256 rays × 1024 samples per ray): zero the gradients, `train_step` (forward + backward with
-//!    6-tap finite-difference normals), `AdamW::step` over all parameters. Samples/s for
-//!    `train_step` alone and for the whole iteration, the time per phase, the MLP GFLOP/s and the
-//!    fraction of the FMA peak, the hash-grid memory traffic estimate;
-//! 4. the same for smaller hash tables (T = 2^16, 2^17) as CPU presets may use;
-//! 5. rendering (forward only) and SDF queries (occupancy updates, marching cubes).
+//! 1. the machine's f32 FMA peak (AVX-512 FMA chains on every rayon thread, best of 3);
+//! 2. the MLP products: register kernels against `matrixmultiply` and the naive triple loop
+//!    (the peers measured in the same run), and the SDF hidden layer's parts;
+//! 3. SDF queries: the occupancy grid's warm-up update (all 128³ cells);
+//! 4. the whole training iteration as the training loop runs it, on a realistic batch: rays from
+//!    49 cameras around the unit sphere through a sphere SDF of radius 0.5, the occupancy grid
+//!    after its first update, the dynamic ray count at the reference sample budget (256 rays ×
+//!    1024 samples per ray): `train_step` (forward + backward with 6-tap finite-difference
+//!    normals), then `AdamW::step_and_zero_grads` over all parameters. Samples/s for `train_step`
+//!    alone and for the whole iteration, the time per phase, the MLP GFLOP/s and the fraction of
+//!    the FMA peak, an estimate of the hash-grid memory traffic;
+//! 5. the hash-grid paths alone (general / per-level stencil / level-parallel batch), one thread;
+//! 6. the training iteration with smaller hash tables (T = 2^17, 2^16) as CPU presets may use;
+//! 7. rendering (forward only) and SDF queries at random points.
 //!
-//! The machine may be shared: every throughput is printed twice, per wall-clock second and per
-//! CPU second of this process times the thread count (what the threads would do on otherwise idle
-//! cores), together with the load average.
+//! The machine may be shared: every throughput is printed per wall-clock second and per CPU
+//! second of this process times the thread count, with the load average and the share of the
+//! cores the process got. Trust the wall-clock figure when that share is above ~90%; under
+//! contention the CPU-time figure overestimates (other processes also slow the memory system).
 //!
 //! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
-//! `NEUS_AUG_BENCH_QUICK=1` runs only the default network's training iteration.
+//! `NEUS_AUG_BENCH_QUICK=1` runs only the FMA peak and the default network's iteration;
+//! `NEUS_AUG_CHUNK` overrides `chunk_samples`. Profiling aids (callgrind, no AVX-512 there: build
+//! with `RUSTFLAGS="-C target-cpu=x86-64-v3"`): `NEUS_AUG_BENCH_HASH_ONLY=<log2 T>` runs only the
+//! hash-grid paths, `NEUS_AUG_BENCH_STEP_ONLY=1` two small training steps.
 
-/// Cache-line aligned large buffers on huge pages, as the binary uses (see
+/// Cache-line aligned large buffers on huge pages, as the binary should use (see
 /// `neus_aug::field::alloc`).
 #[global_allocator]
 static ALLOC: neus_aug::field::alloc::LargeAligned = neus_aug::field::alloc::LargeAligned;
+
 use neus_aug::render::model::next_num_rays;
 use neus_aug::render::rays::march_rays;
 use neus_aug::render::{ModelConfig, NeusModel, OccupancyGrid, PhaseTimes, RayBatch, Targets};
