@@ -1,28 +1,41 @@
-//! `cargo bench --bench field`: throughput of the NeuS field on the CPU.
+//! `cargo bench --bench field`: throughput of the NeuS field on the CPU (about 40 s on an idle
+//! 2-core machine, up to twice that on a loaded one).
 //!
 //! Prints (all inputs built outside the timed regions):
-//! 1. the machine's f32 FMA peak (AVX-512 FMA chains on every rayon thread);
-//! 2. the MLP layer kernels against the naive triple loop (the peer measured in the same run);
-//! 3. the whole training iteration as the training loop runs it, on a realistic batch: rays from
-//!    cameras around the unit sphere through a sphere SDF of radius 0.5, the occupancy grid after
-//!    its first update, the dynamic ray count converged to the reference sample budget
-//!    (256 rays × 1024 samples per ray): zero the gradients, `train_step` (forward + backward with
-//!    6-tap finite-difference normals), `AdamW::step` over all parameters. Samples/s for
-//!    `train_step` alone and for the whole iteration, the time per phase, the MLP GFLOP/s and the
-//!    fraction of the FMA peak, the hash-grid memory traffic estimate;
-//! 4. the same for smaller hash tables (T = 2^16, 2^17) as CPU presets may use;
-//! 5. rendering (forward only) and SDF queries (occupancy updates, marching cubes).
+//! 1. the machine's f32 FMA peak (AVX-512 FMA chains on every rayon thread, best of 3);
+//! 2. the MLP products: register kernels against `matrixmultiply` and the naive triple loop
+//!    (the peers measured in the same run), and the SDF hidden layer's parts;
+//! 3. SDF queries: the occupancy grid's warm-up update (all 128³ cells);
+//! 4. the whole training iteration as the training loop runs it, on a realistic batch: rays from
+//!    49 cameras around the unit sphere through a sphere SDF of radius 0.5, the occupancy grid
+//!    after its first update, the dynamic ray count at the reference sample budget (256 rays ×
+//!    1024 samples per ray): `train_step` (forward + backward with 6-tap finite-difference
+//!    normals), then `AdamW::step_and_zero_grads` over all parameters. Samples/s for `train_step`
+//!    alone and for the whole iteration, the time per phase, the MLP GFLOP/s and the fraction of
+//!    the FMA peak, an estimate of the hash-grid memory traffic;
+//! 5. the hash-grid paths alone (general / per-level stencil / level-parallel batch), one thread;
+//! 6. the training iteration with smaller hash tables (T = 2^17, 2^16) as CPU presets may use;
+//! 7. rendering (forward only) and SDF queries at random points.
 //!
-//! The machine may be shared: every throughput is printed twice, per wall-clock second and per
-//! CPU second of this process times the thread count (what the threads would do on otherwise idle
-//! cores), together with the load average.
+//! The machine may be shared: every throughput is printed per wall-clock second and per CPU
+//! second of this process times the thread count, with the load average and the share of the
+//! cores the process got. Trust the wall-clock figure when that share is above ~90%; under
+//! contention the CPU-time figure overestimates (other processes also slow the memory system).
 //!
 //! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
-//! `NEUS_AUG_BENCH_QUICK=1` runs only the default network's training iteration.
+//! `NEUS_AUG_BENCH_QUICK=1` runs only the FMA peak and the default network's iteration;
+//! `NEUS_AUG_CHUNK` overrides `chunk_samples`. Profiling aids (callgrind, no AVX-512 there: build
+//! with `RUSTFLAGS="-C target-cpu=x86-64-v3"`): `NEUS_AUG_BENCH_HASH_ONLY=<log2 T>` runs only the
+//! hash-grid paths, `NEUS_AUG_BENCH_STEP_ONLY=1` two small training steps.
 
-use neus_aug::field::mlp::{linear_forward, linear_forward_naive};
-use neus_aug::field::HashGridConfig;
-use neus_aug::render::{ModelConfig, NeusModel, PhaseTimes, RayBatch, Targets};
+/// Cache-line aligned large buffers on huge pages, as the binary should use (see
+/// `neus_aug::field::alloc`).
+#[global_allocator]
+static ALLOC: neus_aug::field::alloc::LargeAligned = neus_aug::field::alloc::LargeAligned;
+
+use neus_aug::render::model::next_num_rays;
+use neus_aug::render::rays::march_rays;
+use neus_aug::render::{ModelConfig, NeusModel, OccupancyGrid, PhaseTimes, RayBatch, Targets};
 use neus_aug::train::{AdamW, AdamWConfig};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -119,57 +132,193 @@ fn fma_thread(iters: u64) -> f64 {
     }
 }
 
-/// FMA peak of all threads (FLOP/s), per CPU second × threads (robust to other load).
+/// FMA peak of all threads (FLOP/s): best of three runs, per CPU second × threads (robust to
+/// other load on the machine).
 fn fma_peak() -> f64 {
     let threads = rayon::current_num_threads();
-    let iters = 40_000_000u64;
+    let iters = 20_000_000u64;
     fma_thread(iters / 100); // warm up
-    let c = Clock::start();
-    let flops: f64 = (0..threads)
-        .into_par_iter()
-        .map(|_| fma_thread(iters))
-        .sum();
-    let (w, cpu) = c.stop();
+    let mut best = (0.0f64, 0.0f64);
+    for _ in 0..3 {
+        let c = Clock::start();
+        let flops: f64 = (0..threads)
+            .into_par_iter()
+            .map(|_| fma_thread(iters))
+            .sum();
+        let (w, cpu) = c.stop();
+        best.0 = best.0.max(flops / w);
+        best.1 = best.1.max(flops / cpu * threads as f64);
+    }
     println!(
-        "== f32 FMA peak ({threads} threads): {:.1} GFLOP/s wall, {:.1} GFLOP/s CPU-time normalised ==",
-        flops / w / 1e9,
-        flops / cpu * threads as f64 / 1e9
+        "== f32 FMA peak ({threads} threads, AVX-512 FMA chains, best of 3): {:.1} GFLOP/s wall, {:.1} GFLOP/s CPU-time normalised ==",
+        best.0 / 1e9,
+        best.1 / 1e9
     );
-    flops / cpu * threads as f64
+    best.1
 }
 
-fn gemm_compare() {
+/// The SDF network's hidden layer on a chunk's rows (256 samples × 7 points): the product alone,
+/// with the fused Softplus, and the whole forward + backward of the layer.
+fn sdf_layer_parts() {
+    use neus_aug::field::mlp::{linear_forward, MlpTape};
+    use neus_aug::field::{Activation, Mlp};
+    let mlp = Mlp::new(vec![35, 64, 13], Activation::Softplus { beta: 100.0 });
+    let mut rng = Pcg64Mcg::seed_from_u64(4);
+    let p: Vec<f32> = (0..mlp.n_params())
+        .map(|_| rng.random_range(-0.3..0.3))
+        .collect();
+    let rows = 1792;
+    let x: Vec<f32> = (0..rows * 35)
+        .map(|_| rng.random_range(-1.0..1.0))
+        .collect();
+    let mut y = vec![0f32; rows * 64];
+    let mut tape = MlpTape::default();
+    let mut g = vec![0f32; mlp.n_params()];
+    let mut dh = vec![0f32; rows * 64];
+    let mut scratch = Vec::new();
+    let mut dx = vec![0f32; rows * 35];
+    let mut best = [f64::MAX; 3];
+    for _ in 0..20 {
+        for (v, b) in best.iter_mut().enumerate() {
+            let t = Instant::now();
+            for _ in 0..20 {
+                match v {
+                    0 => linear_forward(
+                        &p[..64 * 35],
+                        &p[64 * 35..64 * 36],
+                        &x,
+                        rows,
+                        35,
+                        64,
+                        &mut y,
+                    ),
+                    1 => mlp.forward_hidden(&p, &x, rows, &mut tape),
+                    _ => {
+                        dh.fill(0.01);
+                        mlp.backward_hidden_cols(
+                            &p,
+                            &mut g,
+                            &x,
+                            rows,
+                            &tape,
+                            &mut dh,
+                            &mut scratch,
+                            Some((&mut dx, 3..35)),
+                        );
+                    }
+                }
+                black_box(&y);
+            }
+            *b = b.min(t.elapsed().as_secs_f64() / (20 * rows / 7) as f64);
+        }
+    }
+    let mut sp = f64::MAX;
+    let mut d = vec![0f32; rows * 64];
+    for _ in 0..20 {
+        let t = Instant::now();
+        for _ in 0..20 {
+            for (v, dv) in y.iter_mut().zip(d.iter_mut()) {
+                let (a, s) = neus_aug::field::fastmath::softplus_f32(*v, 100.0);
+                *v = a;
+                *dv = s;
+            }
+            black_box(&y);
+        }
+        sp = sp.min(t.elapsed().as_secs_f64() / (20 * rows / 7) as f64);
+    }
+    println!("  softplus alone: {:.3} us/sample", sp * 1e6);
+    let fl = 2.0 * 7.0 * 35.0 * 64.0;
+    println!(
+        "  SDF hidden layer per sample (7 rows): product {:.3} us ({:.0} GFLOP/s), + Softplus {:.3} us, backward (dW, dX grid cols, dz) {:.3} us ({:.0} GFLOP/s)",
+        1e6 * best[0],
+        fl / best[0] / 1e9,
+        1e6 * best[1],
+        1e6 * best[2],
+        (2.0 * fl - 2.0 * 7.0 * 3.0 * 64.0) / best[2] / 1e9
+    );
+}
+
+fn gemm_compare(peak: f64) {
+    use neus_aug::field::dense::{gemm, gemm_reference, Strided};
+    let threads = rayon::current_num_threads() as f64;
     let mut rng = Pcg64Mcg::seed_from_u64(1);
     println!(
-        "\n== MLP layers: linear_forward vs naive loops (one thread, f32, GFLOP/s per CPU s) =="
+        "\n== MLP products, one thread, f32, GFLOP/s (best of 5 runs; per-core FMA peak {:.0}) ==",
+        peak / threads / 1e9
     );
-    for &(n, di, d_o) in &[
-        (3584usize, 35usize, 64usize),
-        (512, 64, 13),
-        (512, 64, 64),
-        (512, 32, 64),
+    println!("  shape                          register kernel  matrixmultiply  naive loops");
+    for &(m, k, n, tr, name) in &[
+        (3584usize, 35usize, 64usize, false, "fwd  [3584 x 35] -> 64"),
+        (512, 64, 64, false, "fwd  [512 x 64] -> 64"),
+        (3584, 64, 32, false, "dX   [3584 x 64] -> 32"),
+        (35, 3584, 64, true, "dW   64 x 35 over 3584 rows"),
+        (512, 64, 13, false, "fwd  [512 x 64] -> 13"),
+        (512, 35, 64, false, "fwd  [512 x 35] -> 64"),
+        (3584, 64, 64, false, "fwd  [3584 x 64] -> 64"),
+        (36, 3584, 64, true, "dW   64 x 36 over 3584 rows"),
     ] {
-        let w: Vec<f32> = (0..di * d_o).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let b: Vec<f32> = (0..d_o).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let x: Vec<f32> = (0..n * di).map(|_| rng.random_range(-1.0..1.0)).collect();
-        let mut y = vec![0f32; n * d_o];
-        let flops = 2.0 * (n * di * d_o) as f64;
-        let reps = (1e9 / flops).ceil() as usize;
-        let c = Clock::start();
-        for _ in 0..reps {
-            linear_forward(&w, &b, &x, n, di, d_o, &mut y);
-            black_box(&y);
+        let a: Vec<f32> = (0..m * k).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let b: Vec<f32> = (0..k * n).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let mut c = vec![0f32; m * n];
+        let sa = if tr {
+            Strided {
+                data: &a[..],
+                rs: 1,
+                cs: m,
+            }
+        } else {
+            Strided {
+                data: &a[..],
+                rs: k,
+                cs: 1,
+            }
+        };
+        let flops = 2.0 * (m * k * n) as f64;
+        let reps = (4e9 / flops).ceil() as usize;
+        let mut g = [0.0f64; 3];
+        for (v, gv) in g.iter_mut().enumerate() {
+            let reps = if v == 2 { reps.div_ceil(32) } else { reps };
+            // Best of 5 wall-clock runs (~20 ms each): robust to preemption by other load.
+            for _ in 0..5 {
+                let t = Instant::now();
+                for _ in 0..reps {
+                    match v {
+                        0 => gemm(
+                            m,
+                            k,
+                            n,
+                            sa,
+                            &b,
+                            n,
+                            &mut c,
+                            n,
+                            neus_aug::field::dense::Init::Zero,
+                        ),
+                        1 => gemm_reference(m, k, n, sa, &b, n, &mut c, n, false),
+                        _ => {
+                            for i in 0..m {
+                                for j in 0..n {
+                                    let mut s = 0.0;
+                                    for kk in 0..k {
+                                        s += a[i * sa.rs + kk * sa.cs] * b[kk * n + j];
+                                    }
+                                    c[i * n + j] = s;
+                                }
+                            }
+                        }
+                    }
+                    black_box(&c);
+                }
+                *gv = gv.max(flops * reps as f64 / t.elapsed().as_secs_f64() / 1e9);
+            }
         }
-        let g_mm = flops * reps as f64 / c.stop().1 / 1e9;
-        let c = Clock::start();
-        for _ in 0..reps.div_ceil(8) {
-            linear_forward_naive(&w, &b, &x, n, di, d_o, &mut y);
-            black_box(&y);
-        }
-        let g_nv = flops * reps.div_ceil(8) as f64 / c.stop().1 / 1e9;
         println!(
-            "  [{n} x {di}] -> {d_o}: linear_forward {g_mm:6.1}, naive {g_nv:6.1}, ratio {:.1}x",
-            g_mm / g_nv
+            "  {name:<30} {:7.1} ({:3.0}%)   {:7.1} ({:3.0}%)   {:7.1}",
+            g[0],
+            100.0 * g[0] * threads / (peak / 1e9),
+            g[1],
+            100.0 * g[1] * threads / (peak / 1e9),
+            g[2]
         );
     }
 }
@@ -264,8 +413,7 @@ struct IterStats {
     steps: usize,
     samples: usize,
     rays: usize,
-    /// Wall seconds: zeroing, train_step, AdamW.
-    zero: f64,
+    /// Wall seconds in train_step and in AdamW (zeroing the gradients).
     step: f64,
     adam: f64,
     /// Wall and CPU seconds of the whole loop.
@@ -289,12 +437,11 @@ fn add_phases(a: &mut PhaseTimes, t: &PhaseTimes) {
 /// Sample budget of the reference (`train_num_rays · num_samples_per_ray`).
 const BUDGET: usize = 256 * 1024;
 
-/// Builds the model, parameters, occupancy grid and a batch whose ray count is converged to the
-/// sample budget, then runs whole training iterations for `secs` seconds.
-fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, IterStats) {
+/// A model with sphere-initialised parameters (grid columns of the first layer perturbed so the
+/// hash grid matters) and its occupancy grid after the first (all-cells) update, timed.
+fn setup(cfg: ModelConfig) -> (NeusModel, Vec<f32>, OccupancyGrid, (f64, f64)) {
     let model = NeusModel::new(cfg).expect("valid config");
     let mut params = model.init_params(0);
-    // Give the grid columns of the first layer some weight so the hash grid matters.
     let sdf = model.layout.group("sdf_mlp").unwrap().clone();
     let mut rng = Pcg64Mcg::seed_from_u64(9);
     for v in &mut params[sdf.range()] {
@@ -303,23 +450,34 @@ fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, I
     let mut occ = model.new_occupancy_grid();
     let c = Clock::start();
     model.update_occupancy(&params, &mut occ, 0, model.config.schedule(0), 0);
-    let (w, cpu) = c.stop();
-    if verbose {
-        println!(
-            "\n== occupancy update at warm-up (all {} cells): {:.2} s wall, {:.2} CPU s; {} points; occupied {:.1}% ==",
-            occ.n_cells(),
-            w,
-            cpu,
-            rate(occ.n_cells() as f64, w, cpu),
-            100.0 * occ.occupied_fraction()
-        );
-    }
+    let t = c.stop();
+    (model, params, occ, t)
+}
+
+/// Whole training iterations as the training loop runs them, for `secs` seconds: `train_step`
+/// on a batch whose ray count follows the dynamic rule towards the sample budget, then
+/// `AdamW::step_and_zero_grads` over all parameters.
+fn train_iterations(
+    model: &NeusModel,
+    params: &mut [f32],
+    occ: &OccupancyGrid,
+    secs: f64,
+) -> IterStats {
     let all = rays_towards_sphere(16384, 3);
     let sched = model.config.schedule(1000);
     let mut grads = vec![0f32; params.len()];
     let mut opt = AdamW::new(AdamWConfig::default(), params.len());
-    // Converge the dynamic ray count (these steps double as the warm-up).
-    let mut n_rays = model.config.render.train_num_rays;
+    // Start the ray count near its fixed point (samples per ray from marching alone).
+    let probe = march_rays(
+        &all.origins[..1024],
+        &all.dirs[..1024],
+        model.config.render.radius,
+        model.render_step_size(),
+        &[],
+        Some(occ),
+    );
+    let max_rays = model.config.render.max_train_num_rays;
+    let mut n_rays = (BUDGET * 1024 / probe.n_samples().max(1)).clamp(1, max_rays);
     let mut offset = 0usize;
     let mut take = |n: usize| {
         let n = n.min(all.origins.len());
@@ -330,28 +488,19 @@ fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, I
         offset += n;
         r
     };
-    let max_rays = model.config.render.max_train_num_rays;
-    for k in 0..12 {
-        let r = take(n_rays);
-        let rays = RayBatch {
-            origins: &all.origins[r.clone()],
-            dirs: &all.dirs[r.clone()],
-            codes: &[],
-            p: &[],
-        };
-        let t = Targets {
-            rgb: &all.rgb[r.clone()],
-            mask: Some(&all.mask[r]),
-        };
-        grads.fill(0.0);
-        let o = model
-            .train_step(&params, &mut grads, &rays, &t, sched, Some(&occ), k)
-            .unwrap();
-        n_rays = neus_aug::render::model::next_num_rays(n_rays, o.n_samples, BUDGET, max_rays);
-    }
     let mut st = IterStats::default();
-    let c = Clock::start();
-    while c.wall.elapsed().as_secs_f64() < secs || st.steps < 2 {
+    let mut clock = None;
+    let mut k = 0u64;
+    // Three warm-up iterations (allocations, page faults, ray count), then the measurement.
+    loop {
+        if k == 3 {
+            clock = Some(Clock::start());
+        }
+        if let Some(c) = &clock {
+            if c.wall.elapsed().as_secs_f64() >= secs && st.steps >= 2 {
+                break;
+            }
+        }
         let r = take(n_rays);
         let rays = RayBatch {
             origins: &all.origins[r.clone()],
@@ -363,44 +512,37 @@ fn train_iterations(cfg: ModelConfig, secs: f64, verbose: bool) -> (NeusModel, I
             rgb: &all.rgb[r.clone()],
             mask: Some(&all.mask[r]),
         };
-        let t0 = Instant::now();
-        grads.fill(0.0);
         let t1 = Instant::now();
         let o = model
-            .train_step(
-                &params,
-                &mut grads,
-                &rays,
-                &t,
-                sched,
-                Some(&occ),
-                100 + st.steps as u64,
-            )
+            .train_step(params, &mut grads, &rays, &t, sched, Some(occ), k)
             .unwrap();
         let t2 = Instant::now();
-        opt.step(&mut params, &grads, &model.layout, 1.0).unwrap();
+        opt.step_and_zero_grads(params, &mut grads, &model.layout, 1.0)
+            .unwrap();
         let t3 = Instant::now();
-        st.zero += (t1 - t0).as_secs_f64();
-        st.step += (t2 - t1).as_secs_f64();
-        st.adam += (t3 - t2).as_secs_f64();
-        st.samples += o.n_samples;
-        st.rays += o.n_rays;
-        st.steps += 1;
-        add_phases(&mut st.phases, &o.times);
-        n_rays = neus_aug::render::model::next_num_rays(n_rays, o.n_samples, BUDGET, max_rays);
+        if clock.is_some() {
+            st.step += (t2 - t1).as_secs_f64();
+            st.adam += (t3 - t2).as_secs_f64();
+            st.samples += o.n_samples;
+            st.rays += o.n_rays;
+            st.steps += 1;
+            add_phases(&mut st.phases, &o.times);
+        }
+        n_rays = next_num_rays(n_rays, o.n_samples, BUDGET, max_rays);
+        k += 1;
     }
-    (st.wall, st.cpu) = c.stop();
-    black_box(&params);
-    (model, st)
+    (st.wall, st.cpu) = clock.expect("measured").stop();
+    st
 }
 
+/// Prints an iteration measurement; returns train_step samples/s on idle cores.
 fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: bool) -> f64 {
     let threads = rayon::current_num_threads() as f64;
     let n = st.samples as f64;
     // CPU share of the loop that the process got, used to normalise wall-clock parts.
     let share = (st.cpu / (st.wall * threads)).min(1.0);
     println!(
-        "\n== {label}: {} params, {} steps, {:.0} rays x {:.0} samples/ray = {:.0} samples/step ==",
+        "\n== {label}: {} params, {} iterations of {:.0} rays x {:.0} samples/ray = {:.0} samples ==",
         model.n_params(),
         st.steps,
         st.rays as f64 / st.steps as f64,
@@ -408,21 +550,20 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
         n / st.steps as f64
     );
     println!(
-        "  whole iteration (zero grads + train_step + AdamW): {} samples",
+        "  whole iteration (train_step + AdamW, zeroing the grads): {} samples",
         rate(n, st.wall, st.cpu)
     );
     let step_cpu = st.step * threads * share;
     println!(
-        "  train_step alone:                                  {} samples",
+        "  train_step alone:                                        {} samples",
         rate(n, st.step, step_cpu)
     );
-    let it = st.zero + st.step + st.adam;
+    let it = st.step + st.adam;
     println!(
-        "  per iteration: zero {:.1} ms ({:.1}%), train_step {:.1} ms ({:.1}%), AdamW {:.1} ms ({:.1}%) [wall; process got {:.0}% of {} cores]",
-        1e3 * st.zero / st.steps as f64,
-        100.0 * st.zero / it,
+        "  per iteration: train_step {:.0} ms ({:.1}%), AdamW over {} params {:.1} ms ({:.1}%) [wall; the process got {:.0}% of {} cores]",
         1e3 * st.step / st.steps as f64,
         100.0 * st.step / it,
+        model.n_params(),
         1e3 * st.adam / st.steps as f64,
         100.0 * st.adam / it,
         100.0 * share,
@@ -442,7 +583,7 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
             + p.sdf_mlp_bwd
             + p.encode_bwd;
         println!(
-            "  MLP work: {:.0} MACs/sample fwd + {:.0} bwd = {:.0} kFLOP/sample -> {:.1} GFLOP/s at the train_step rate = {:.1}% of the FMA peak",
+            "  MLP work: {:.0} MACs/sample forward + {:.0} backward = {:.0} kFLOP/sample -> {:.1} GFLOP/s at the train_step rate = {:.1}% of the FMA peak",
             f,
             b,
             flops / 1e3,
@@ -450,13 +591,15 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
             100.0 * sps_step * flops / peak
         );
         println!(
-            "  inside the MLP phases alone: {:.1} GFLOP/s per core = {:.1}% of the per-core peak",
+            "  inside the MLP phases (incl. activations, normals, colour input): {:.1} GFLOP/s per core = {:.1}% of the per-core peak",
             n * flops / (mlp_time * share) / 1e9,
             100.0 * n * flops / (mlp_time * share) / (peak / threads)
         );
-        println!("  where train_step's time goes (thread seconds summed over shards):");
+        println!(
+            "  where train_step's time goes (per sample, one core's time; shares of the phases):"
+        );
         for (name, v) in [
-            ("hash encode fwd (7 pts)", p.encode_fwd),
+            ("hash encode fwd (7 points)", p.encode_fwd),
             ("SDF MLP fwd", p.sdf_mlp_fwd),
             ("normals + colour MLP fwd", p.color_fwd),
             ("alpha + compositing + loss", p.render),
@@ -465,18 +608,18 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
             ("hash encode bwd (scatter)", p.encode_bwd),
         ] {
             println!(
-                "    {name:<30} {:6.2} us/sample {:5.1}%",
+                "    {name:<30} {:6.2} us {:5.1}%",
                 1e6 * v * share / n,
                 100.0 * v / cpu_phases
             );
         }
         println!(
-            "    {:<30} {:6.2} us/sample (serial)",
+            "    {:<30} {:6.2} us (serial, before the parallel part)",
             "ray marching",
             1e6 * p.sample * share / n
         );
         println!(
-            "    {:<30} {:6.2} us/sample (shard-gradient reduction, parallel)",
+            "    {:<30} {:6.2} us (summing the shard gradient buffers, parallel)",
             "reduce",
             1e6 * p.reduce * share / n
         );
@@ -485,20 +628,16 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
 }
 
 /// Sample points of a realistic batch (ray order) with their finite-difference taps.
-fn stencil_points(model: &NeusModel, params: &[f32], n_rays: usize) -> Vec<[[f32; 3]; 7]> {
-    let mut occ = model.new_occupancy_grid();
-    if std::env::var("NEUS_AUG_BENCH_HASH_ONLY").is_err() {
-        model.update_occupancy(params, &mut occ, 0, model.config.schedule(0), 0);
-    }
+fn stencil_points(model: &NeusModel, occ: &OccupancyGrid, n_rays: usize) -> Vec<[[f32; 3]; 7]> {
     let rays = rays_towards_sphere(n_rays, 11);
     let r = model.config.render.radius;
-    let s = neus_aug::render::rays::march_rays(
+    let s = march_rays(
         &rays.origins,
         &rays.dirs,
         r,
         model.render_step_size(),
         &[],
-        Some(&occ),
+        Some(occ),
     );
     let eps = model.fd_eps(model.grid.levels.len()) as f32;
     let mut out = Vec::with_capacity(s.n_samples());
@@ -518,16 +657,54 @@ fn stencil_points(model: &NeusModel, params: &[f32], n_rays: usize) -> Vec<[[f32
     out
 }
 
-/// The hash-grid encoding of a sample and its six taps, forward and backward, one thread:
-/// the general seven-point path (`encode_group`) against the stencil path (`encode_fd`),
-/// interleaved so both see the same machine load; best of several rounds.
-fn hash_paths(model: &NeusModel, params: &[f32]) {
-    let n_rays = if std::env::var("NEUS_AUG_BENCH_HASH_ONLY").is_ok() {
-        60
-    } else {
-        600
-    };
-    let pts = stencil_points(model, params, n_rays);
+/// Distinct 64-byte lines of the hash table the seven points of each sample touch (all levels),
+/// and how many of them the previous sample (the neighbour along the ray) did not touch: an
+/// estimate of the table traffic beyond the L1 cache. Index arithmetic written here again from
+/// the tcnn definition (independent of the library's).
+fn hash_lines(model: &NeusModel, pts: &[[[f32; 3]; 7]]) -> (f64, f64) {
+    let g = &model.grid;
+    let f = g.n_features;
+    let mut prev: Vec<u64> = Vec::new();
+    let (mut all, mut new) = (0usize, 0usize);
+    for sample in pts {
+        let mut lines: Vec<u64> = Vec::new();
+        for lvl in &g.levels {
+            for x in sample {
+                let pos: Vec<f64> = x
+                    .iter()
+                    .map(|&v| lvl.scale * ((v as f64 + 1.0) / 2.0) + 0.5)
+                    .collect();
+                for c in 0..8u64 {
+                    let q: Vec<u64> = (0..3)
+                        .map(|d| pos[d].floor() as u64 + ((c >> d) & 1))
+                        .collect();
+                    let e = if lvl.hashed {
+                        (q[0] ^ (q[1] * 2_654_435_761) ^ (q[2] * 805_459_861)) & 0xffff_ffff
+                    } else {
+                        let r = lvl.resolution as u64;
+                        q[0] + q[1] * r + q[2] * r * r
+                    } % lvl.size as u64;
+                    lines.push((lvl.offset as u64 + e) * 4 * f as u64 / 64);
+                }
+            }
+        }
+        lines.sort_unstable();
+        lines.dedup();
+        all += lines.len();
+        new += lines
+            .iter()
+            .filter(|l| prev.binary_search(l).is_err())
+            .count();
+        prev = lines;
+    }
+    (all as f64 / pts.len() as f64, new as f64 / pts.len() as f64)
+}
+
+/// The hash-grid encoding of a sample and its six taps, forward and backward, one thread: the
+/// general seven-point path (`encode_group`, eight corners per point, reusing the centre's cell),
+/// the per-level stencil (`encode_fd`) and the level-parallel batch (`encode_fd_batch`),
+/// interleaved so all see the same machine load; best of several rounds.
+fn hash_paths(model: &NeusModel, params: &[f32], pts: &[[[f32; 3]; 7]]) {
     let g = &model.grid;
     let d = g.output_dim();
     let table = &params[model.layout.group("hash_grid").unwrap().range()];
@@ -551,9 +728,9 @@ fn hash_paths(model: &NeusModel, params: &[f32]) {
     let rounds: usize = std::env::var("NEUS_AUG_ROUNDS")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(12);
+        .unwrap_or(8);
     let mut best = [f64::MAX; 6];
-    let part_len = 20000.min(pts.len() / 2);
+    let part_len = 16384.min(pts.len() / 2);
     for round in 0..rounds {
         let k0 = (round * part_len) % (pts.len() - part_len + 1);
         let part = &pts[k0..k0 + part_len];
@@ -606,21 +783,30 @@ fn hash_paths(model: &NeusModel, params: &[f32]) {
     }
     let us = best.map(|v| 1e6 * v);
     println!(
-        "  hash grid, one thread, {} samples x 7 points, us/sample (best of {rounds} rounds):\n    fwd: general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x the general path)\n    bwd: general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x)",
-        pts.len(),
-        us[0], us[1], us[2], us[0] / us[2], us[3], us[4], us[5], us[3] / us[5]
+        "  hash grid alone, one thread, {part_len} samples x 7 points, us/sample (best of {rounds} rounds):"
+    );
+    println!(
+        "    forward:  general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x the general path)",
+        us[0], us[1], us[2], us[0] / us[2]
+    );
+    println!(
+        "    backward: general {:.2}, per-level stencil {:.2}, level-parallel batch {:.2} ({:.1}x)",
+        us[3],
+        us[4],
+        us[5],
+        us[3] / us[5]
     );
 }
 
-fn hash_traffic(model: &NeusModel) {
-    let g = &model.grid;
-    let table_mb = (g.n_params() * 4) as f64 / 1e6;
-    println!(
-        "  hash table {:.1} MB ({} levels, {} dense); gradient buffer the same; L3 32 MB",
-        table_mb,
-        g.levels.len(),
-        g.levels.iter().filter(|l| !l.hashed).count()
-    );
+/// Parameters perturbed as in `setup` (for models built without it).
+fn perturbed(model: &NeusModel) -> Vec<f32> {
+    let mut params = model.init_params(0);
+    let sdf = model.layout.group("sdf_mlp").unwrap().clone();
+    let mut rng = Pcg64Mcg::seed_from_u64(9);
+    for v in &mut params[sdf.range()] {
+        *v += rng.random_range(-0.01..0.01);
+    }
+    params
 }
 
 fn main() {
@@ -629,83 +815,132 @@ fn main() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(6.0);
     if let Ok(l2) = std::env::var("NEUS_AUG_BENCH_HASH_ONLY") {
-        // Profiling aid (callgrind): only the hash-grid paths, table of 2^l2 entries per level.
+        // Profiling aid: only the hash-grid paths, tables of 2^l2 entries, no occupancy grid.
         let mut cfg = ModelConfig::default();
         cfg.field.hash_grid.log2_hashmap_size = l2.parse().expect("log2 table size");
+        cfg.render.occupancy.enabled = false;
         let m = NeusModel::new(cfg).unwrap();
-        let p = m.init_params(0);
-        hash_paths(&m, &p);
+        let p = perturbed(&m);
+        let occ = m.new_occupancy_grid();
+        hash_paths(&m, &p, &stencil_points(&m, &occ, 60));
         return;
     }
+    if std::env::var("NEUS_AUG_BENCH_STEP_ONLY").is_ok() {
+        // Profiling aid (callgrind): two training steps of the default network on 64 rays
+        // without an occupancy grid, then one AdamW step.
+        let model = NeusModel::new(ModelConfig::default()).unwrap();
+        let mut params = model.init_params(0);
+        let rays = rays_towards_sphere(64, 3);
+        let batch = RayBatch {
+            origins: &rays.origins,
+            dirs: &rays.dirs,
+            codes: &[],
+            p: &[],
+        };
+        let t = Targets {
+            rgb: &rays.rgb,
+            mask: Some(&rays.mask),
+        };
+        let mut grads = vec![0f32; params.len()];
+        let sched = model.config.schedule(1000);
+        for k in 0..2 {
+            let o = model
+                .train_step(&params, &mut grads, &batch, &t, sched, None, k)
+                .unwrap();
+            println!("{} samples", o.n_samples);
+        }
+        let mut opt = AdamW::new(AdamWConfig::default(), params.len());
+        opt.step_and_zero_grads(&mut params, &mut grads, &model.layout, 1.0)
+            .unwrap();
+        return;
+    }
+    let quick = std::env::var("NEUS_AUG_BENCH_QUICK").is_ok();
     let threads = rayon::current_num_threads();
     println!(
         "neus-aug field bench: {threads} rayon threads, load average {} at start",
         loadavg()
     );
     let peak = fma_peak();
-    if std::env::var("NEUS_AUG_BENCH_QUICK").is_err() {
-        gemm_compare();
+    if !quick {
+        gemm_compare(peak);
+        sdf_layer_parts();
     }
 
-    let (model, st) = train_iterations(ModelConfig::default(), secs, true);
+    // The default network (DESIGN §5).
+    let mut cfg = ModelConfig::default();
+    if let Some(c) = std::env::var("NEUS_AUG_CHUNK")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        cfg.render.chunk_samples = c;
+    }
+    let (model, mut params, occ, (w, cpu)) = setup(cfg);
+    println!(
+        "\n== SDF queries: occupancy update at warm-up (all {} cells, {:.1}% occupied after): {} points ==",
+        occ.n_cells(),
+        100.0 * occ.occupied_fraction(),
+        rate(occ.n_cells() as f64, w, cpu)
+    );
+    let st = train_iterations(&model, &mut params, &occ, secs);
     let sps = report(
-        "default network (L=16, F=2, T=2^19, 64-wide)",
+        "training iteration, default network (L=16, F=2, T=2^19, SDF 35->64->13, colour 32->64->64->3)",
         &model,
         &st,
         peak,
         true,
     );
-    hash_traffic(&model);
-    {
-        let mut params = model.init_params(0);
-        let sdf = model.layout.group("sdf_mlp").unwrap().clone();
-        let mut rng = Pcg64Mcg::seed_from_u64(9);
-        for v in &mut params[sdf.range()] {
-            *v += rng.random_range(-0.01..0.01);
-        }
-        hash_paths(&model, &params);
-        if let Ok(l2) = std::env::var("NEUS_AUG_SMALL_T") {
-            let mut cfg = ModelConfig::default();
-            cfg.field.hash_grid.log2_hashmap_size = l2.parse().unwrap();
-            let m = NeusModel::new(cfg).unwrap();
-            let p = m.init_params(0);
-            println!("  T = 2^{l2}:");
-            hash_paths(&m, &p);
-        }
-    }
     println!(
-        "  target 400k samples/s (train_step, 2 cores): {:.0}% of target",
+        "  target 400k samples/s (train_step, 2 idle cores): {:.0}% of target",
         100.0 * sps / 4e5
     );
-
-    if std::env::var("NEUS_AUG_BENCH_QUICK").is_ok() {
+    let pts = stencil_points(&model, &occ, 200);
+    let (lines, new) = hash_lines(&model, &pts[..pts.len().min(20000)]);
+    let g = &model.grid;
+    println!(
+        "  hash table {:.1} MB ({} levels, {} dense) + its gradient buffer(s), L3 32 MB: per sample the 7 points touch {:.0} distinct 64-B lines, {:.0} not touched by the previous sample; at the train_step rate that is ~{:.1} GB/s of table reads + {:.1} GB/s of gradient read-modify-write beyond L1",
+        (g.n_params() * 4) as f64 / 1e6,
+        g.levels.len(),
+        g.levels.iter().filter(|l| !l.hashed).count(),
+        lines,
+        new,
+        sps * new * 64.0 / 1e9,
+        sps * new * 128.0 / 1e9
+    );
+    if let Some(l) = std::fs::read_to_string("/proc/self/smaps_rollup")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("AnonHugePages"))
+                .map(String::from)
+        })
+    {
+        println!(
+            "  memory in transparent huge pages (LargeAligned allocator): {}",
+            l.split_whitespace().skip(1).collect::<Vec<_>>().join(" ")
+        );
+    }
+    if quick {
         println!("load average at end: {}", loadavg());
         return;
     }
+    hash_paths(&model, &params, &pts);
+
+    // Smaller tables, as CPU presets may use.
     for log2 in [17u32, 16] {
-        let cfg = ModelConfig {
-            field: neus_aug::field::FieldConfig {
-                hash_grid: HashGridConfig {
-                    log2_hashmap_size: log2,
-                    ..Default::default()
-                },
-                ..Default::default()
-            },
-            ..Default::default()
-        };
-        let (m, st) = train_iterations(cfg, secs / 2.0, false);
-        report(&format!("T = 2^{log2}"), &m, &st, peak, false);
+        let mut cfg = ModelConfig::default();
+        cfg.field.hash_grid.log2_hashmap_size = log2;
+        let (m, mut p, o, _) = setup(cfg);
+        let st = train_iterations(&m, &mut p, &o, secs / 2.0);
+        report(
+            &format!("T = 2^{log2}, otherwise default"),
+            &m,
+            &st,
+            peak,
+            false,
+        );
     }
 
     // Inference rendering (no backward) on the default model.
-    let mut params = model.init_params(0);
-    let sdf = model.layout.group("sdf_mlp").unwrap().clone();
-    let mut rng = Pcg64Mcg::seed_from_u64(9);
-    for v in &mut params[sdf.range()] {
-        *v += rng.random_range(-0.01..0.01);
-    }
-    let mut occ = model.new_occupancy_grid();
-    model.update_occupancy(&params, &mut occ, 0, model.config.schedule(0), 0);
     let rays = rays_towards_sphere(1024, 5);
     let batch = RayBatch {
         origins: &rays.origins,
@@ -723,26 +958,21 @@ fn main() {
     }
     let (w, cpu) = c.stop();
     println!(
-        "\n== render (forward only, FD normals, {} samples/batch): {} samples ==",
+        "\n== render (forward only, FD normals, {} samples per 1024 rays): {} samples ==",
         r.n_samples,
         rate((r.n_samples * k) as f64, w, cpu)
     );
     // SDF queries at random points (marching cubes and occupancy updates use the same path).
+    let mut rng = Pcg64Mcg::seed_from_u64(12);
     let pts: Vec<[f32; 3]> = (0..1 << 20)
-        .map(|_| {
-            [
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-                rng.random_range(-1.0..1.0),
-            ]
-        })
+        .map(|_| [0, 1, 2].map(|_| rng.random_range(-1.0..1.0)))
         .collect();
     black_box(model.sdf(&params, &pts[..1 << 14], 16));
     let c = Clock::start();
     black_box(model.sdf(&params, &pts, 16));
     let (w, cpu) = c.stop();
     println!(
-        "== sdf queries at random points: {} points ==",
+        "== sdf queries at random points (no locality): {} points ==",
         rate(pts.len() as f64, w, cpu)
     );
     println!("load average at end: {}", loadavg());

@@ -17,6 +17,10 @@ use neus_aug::scene::{sim, LoadOptions, Scene};
 use neus_aug::train::{TrainConfig, TrainData, TrainState, Trainer};
 use std::time::Instant;
 
+// The same allocator as the `neus-aug` binary, so the timings are the program's.
+#[global_allocator]
+static ALLOC: neus_aug::field::alloc::LargeAligned = neus_aug::field::alloc::LargeAligned;
+
 fn env(key: &str, default: usize) -> usize {
     std::env::var(key)
         .ok()

@@ -204,6 +204,37 @@ impl LaneBlock {
         out
     }
 
+    /// The centre part of [`plan`](Self::plan) alone (weights and the 8 corner indices), for
+    /// points without taps.
+    #[inline(always)]
+    fn plan_centre<T: Real>(&self, k: &LaneConsts<T>, uc: [T; 3], pl: &mut Plan<T>) {
+        let half = T::from_f64(0.5);
+        let mut terms = [[[0u32; LANES]; 2]; 3];
+        for a in 0..3 {
+            for l in 0..LANES {
+                let pos = k.sc[l] * uc[a] + half;
+                let fl = pos.floor();
+                let cell = fl.cell_u32();
+                let f = pos - fl;
+                pl.w[a][0][l] = T::ONE - f;
+                pl.w[a][1][l] = f;
+                terms[a][0][l] = cell.wrapping_mul(self.mul[a][l]);
+                terms[a][1][l] = cell.wrapping_add(1).wrapping_mul(self.mul[a][l]);
+            }
+        }
+        for q in 0..4 {
+            let (ty, tz) = (&terms[1][q & 1], &terms[2][q >> 1]);
+            let mut pr = Pair::default();
+            for l in 0..LANES {
+                pr.x[l] = ty[l] ^ tz[l];
+                pr.a[l] = ty[l].wrapping_add(tz[l]);
+            }
+            for i in 0..2 {
+                pl.ce[(q << 1) | i] = self.index(&pr, &terms[0][i]);
+            }
+        }
+    }
+
     /// Fills `pl` with the cells, fractions, tap offsets and (if `indices`) table indices of one
     /// sample. Returns false if a tap moves more than one cell on an active lane.
     #[inline(always)]
@@ -308,23 +339,32 @@ impl LaneBlock {
     }
 }
 
+/// The 16 lane values at `idx`: 8 pairs (the two features of a level are adjacent, lane
+/// `2j + 1` reads `idx[2j] + 1`), loaded as 8 two-element reads.
 #[inline(always)]
 fn gather<T: Real>(buf: &[T], idx: &L<u32>) -> L<T> {
     let mut v = [T::ZERO; LANES];
-    for l in 0..LANES {
-        // SAFETY: every index is `2·offset_l + f + 2·(e mod size_l)` < `2·n_entries`, and the
-        // callers assert `buf.len() >= n_params = 2·n_entries`.
-        v[l] = unsafe { *buf.get_unchecked(idx[l] as usize) };
+    for j in 0..LANES / 2 {
+        // SAFETY: every index is `2·offset_l + 2·(e mod size_l)` (+1 for the odd lane) <
+        // `2·n_entries`, and the callers assert `buf.len() >= n_params = 2·n_entries`.
+        let pair = unsafe { *(buf.as_ptr().add(idx[2 * j] as usize) as *const [T; 2]) };
+        v[2 * j] = pair[0];
+        v[2 * j + 1] = pair[1];
     }
     v
 }
 
+/// Adds the 16 lane values at `idx` (8 pair read-modify-writes, see [`gather`]).
 #[inline(always)]
 fn scatter_add<T: Real>(buf: &mut [T], idx: &L<u32>, v: &L<T>) {
-    for l in 0..LANES {
-        // SAFETY: as in `gather`. Lanes of one call never alias (distinct levels or features);
-        // calls are sequential.
-        unsafe { *buf.get_unchecked_mut(idx[l] as usize) += v[l] };
+    for j in 0..LANES / 2 {
+        // SAFETY: as in `gather`. Pairs of one call never alias (distinct levels); calls are
+        // sequential.
+        unsafe {
+            let p = &mut *(buf.as_mut_ptr().add(idx[2 * j] as usize) as *mut [T; 2]);
+            p[0] += v[2 * j];
+            p[1] += v[2 * j + 1];
+        }
     }
 }
 
@@ -379,14 +419,14 @@ fn block_forward<T: Real>(
         for q in 0..4 {
             let (c0, c1) = (corner(a, 0, q), corner(a, 1, q));
             for l in 0..LANES {
-                f0[l] += wq[q][l] * cv[c0][l];
-                f1[l] += wq[q][l] * cv[c1][l];
+                f0[l] = wq[q][l].fma(cv[c0][l], f0[l]);
+                f1[l] = wq[q][l].fma(cv[c1][l], f1[l]);
             }
         }
         if a == 0 {
             let mut v = [T::ZERO; LANES];
             for l in 0..LANES {
-                let x = pl.w[0][0][l] * f0[l] + pl.w[0][1][l] * f1[l];
+                let x = pl.w[0][0][l].fma(f0[l], pl.w[0][1][l] * f1[l]);
                 v[l] = if k.act[l] != 0 { x } else { T::ZERO };
             }
             out[rows[0]..rows[0] + n].copy_from_slice(&v[..n]);
@@ -397,7 +437,7 @@ fn block_forward<T: Real>(
                 for q in 0..4 {
                     let fv = gather(table, &pl.fe[a][p][q]);
                     for l in 0..LANES {
-                        ff[l] += wq[q][l] * fv[l];
+                        ff[l] = wq[q][l].fma(fv[l], ff[l]);
                     }
                 }
             }
@@ -418,7 +458,7 @@ fn block_forward<T: Real>(
                         if far { f0[l] } else { f1[l] },
                     )
                 };
-                let x = (T::ONE - t) * lo + t * hi;
+                let x = (T::ONE - t).fma(lo, t * hi);
                 v[l] = if k.act[l] != 0 { x } else { T::ZERO };
             }
             let r = rows[1 + 2 * a + p];
@@ -497,8 +537,8 @@ fn block_backward<T: Real>(
         for q in 0..4 {
             let (c0, c1) = (corner(a, 0, q), corner(a, 1, q));
             for l in 0..LANES {
-                dc[c0][l] += wq[q][l] * d0[l];
-                dc[c1][l] += wq[q][l] * d1[l];
+                dc[c0][l] = wq[q][l].fma(d0[l], dc[c0][l]);
+                dc[c1][l] = wq[q][l].fma(d1[l], dc[c1][l]);
             }
         }
     }
@@ -546,7 +586,7 @@ impl HashGrid {
     /// Batched [`encode_fd`](Self::encode_fd) over the samples of a chunk: sample `i`'s centre
     /// `xs[i]` and taps `taps[i]`, rows from `rows(i)`. Uses the level-parallel blocks when
     /// `F = 2` (falling back per sample when a tap moves more than one cell), planning each
-    /// sample [`PREFETCH_AHEAD`] samples before its use and prefetching what it will read. Same
+    /// sample 8 samples before its use and prefetching what it will read. Same
     /// values as calling [`encode_fd`](Self::encode_fd) per sample up to rounding (tested).
     #[allow(clippy::too_many_arguments)]
     pub fn encode_fd_batch<T: Real>(
@@ -576,6 +616,87 @@ impl HashGrid {
         grad: &mut [T],
     ) {
         self.fd_batch_bwd(xs, taps, radius, active, d_out, &rows, grad);
+    }
+
+    /// Batched [`encode`](Self::encode) of points without taps (SDF queries: occupancy updates,
+    /// marching cubes): point `i`'s encoding goes to `out[i·stride..i·stride + output_dim]`.
+    /// Level-parallel blocks with prefetching when `F = 2`, the per-level path otherwise; same
+    /// values up to rounding (tested).
+    pub fn encode_batch<T: Real>(
+        &self,
+        table: &[T],
+        xs: &[[T; 3]],
+        radius: T,
+        active: usize,
+        out: &mut [T],
+        stride: usize,
+    ) {
+        assert!(table.len() >= self.n_params() && stride >= self.output_dim());
+        assert!(
+            out.len() >= xs.len().saturating_sub(1) * stride + self.output_dim() || xs.is_empty()
+        );
+        let Some(blocks) = self.lane_blocks() else {
+            for (i, x) in xs.iter().enumerate() {
+                self.encode(table, *x, radius, active, &mut out[i * stride..]);
+            }
+            return;
+        };
+        let xd = self.xyz_dim();
+        let nb = blocks.len();
+        let consts: Vec<LaneConsts<T>> = blocks.iter().map(|b| b.consts(active)).collect();
+        let live = blocks.iter().filter(|b| b.level0 < active).count();
+        let inv = T::ONE / (radius + radius);
+        let unit = |x: [T; 3]| [0, 1, 2].map(|a| (x[a] + radius) * inv);
+        let mut ring: Vec<Plan<T>> = vec![Plan::default(); RING * nb];
+        let plan = |i: usize, ring: &mut [Plan<T>]| {
+            let uc = unit(xs[i]);
+            for (bi, blk) in blocks.iter().enumerate().take(live) {
+                let pl = &mut ring[(i % RING) * nb + bi];
+                blk.plan_centre(&consts[bi], uc, pl);
+                for c in [0usize, 2, 4, 6] {
+                    for l in (0..2 * blk.n_levels).step_by(2) {
+                        prefetch(table, pl.ce[c][l]);
+                    }
+                }
+            }
+        };
+        for i in 0..xs.len().min(PREFETCH_AHEAD) {
+            plan(i, &mut ring);
+        }
+        for i in 0..xs.len() {
+            if i + PREFETCH_AHEAD < xs.len() {
+                plan(i + PREFETCH_AHEAD, &mut ring);
+            }
+            let row = i * stride;
+            if self.include_xyz {
+                for d in 0..3 {
+                    out[row + d] = xs[i][d] / radius;
+                }
+            }
+            for (bi, blk) in blocks.iter().enumerate() {
+                let o = row + xd + 2 * blk.level0;
+                let n = 2 * blk.n_levels;
+                if bi >= live {
+                    out[o..o + n].fill(T::ZERO);
+                    continue;
+                }
+                let pl = &ring[(i % RING) * nb + bi];
+                let k = &consts[bi];
+                let cv: [L<T>; 8] = std::array::from_fn(|c| gather(table, &pl.ce[c]));
+                let wq = faces(&pl.w, 0);
+                let mut v = [T::ZERO; LANES];
+                for l in 0..LANES {
+                    let (mut f0, mut f1) = (T::ZERO, T::ZERO);
+                    for q in 0..4 {
+                        f0 = wq[q][l].fma(cv[corner(0, 0, q)][l], f0);
+                        f1 = wq[q][l].fma(cv[corner(0, 1, q)][l], f1);
+                    }
+                    let x = pl.w[0][0][l].fma(f0, pl.w[0][1][l] * f1);
+                    v[l] = if k.act[l] != 0 { x } else { T::ZERO };
+                }
+                out[o..o + n].copy_from_slice(&v[..n]);
+            }
+        }
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -810,5 +931,51 @@ mod tests {
             }
         }
         assert!(worst < 1e-12, "level-parallel vs naive max diff {worst}");
+    }
+
+    /// The batched centre-only encoding against the naive reference: inside, on and outside the
+    /// box (wrapping cells), every progressive mask, F = 2 (level-parallel) and F = 1 (fallback).
+    #[test]
+    fn centre_batch_matches_naive() {
+        let mut rng = Pcg64Mcg::seed_from_u64(29);
+        let mut worst = 0.0f64;
+        for (f, n_levels) in [(2usize, 11usize), (1, 5)] {
+            let g = HashGrid::new(&HashGridConfig {
+                n_levels,
+                n_features_per_level: f,
+                log2_hashmap_size: 12,
+                base_resolution: 4.0,
+                per_level_scale: 1.45,
+                ..Default::default()
+            });
+            assert_eq!(g.lane_blocks().is_some(), f == 2);
+            let table: Vec<f64> = (0..g.n_params())
+                .map(|_| rng.random_range(-1.0..1.0))
+                .collect();
+            let r = 0.8;
+            let d = g.output_dim();
+            let stride = d + 3;
+            let xs: Vec<[f64; 3]> = (0..50)
+                .map(|i| match i % 10 {
+                    0 => [r, -r, r],
+                    1 => [1.7 * r, -2.3 * r, 0.0],
+                    _ => [0, 1, 2].map(|_| rng.random_range(-r..r)),
+                })
+                .collect();
+            for active in [n_levels, 1, n_levels / 2 + 1] {
+                let mut out = vec![5.0; xs.len() * stride];
+                g.encode_batch(&table, &xs, r, active, &mut out, stride);
+                for (i, x) in xs.iter().enumerate() {
+                    let want = g.encode_naive(&table, *x, r, active);
+                    for j in 0..d {
+                        worst = worst.max((want[j] - out[i * stride + j]).abs());
+                    }
+                    assert!(out[i * stride + d..(i + 1) * stride]
+                        .iter()
+                        .all(|&v| v == 5.0));
+                }
+            }
+        }
+        assert!(worst < 1e-12, "centre batch vs naive max diff {worst}");
     }
 }

@@ -12,7 +12,9 @@
 //! Reference facts: `../shared/DESIGN.md` §5, instant-nsr-pl `models/geometry.py`,
 //! `models/network_utils.py`, `models/texture.py`, `configs/neus-dtu-wmask.yaml`.
 
+pub mod alloc;
 pub mod config;
+pub mod dense;
 pub mod fastmath;
 pub mod hashgrid;
 pub mod lanes;
@@ -68,6 +70,10 @@ pub trait Real:
     /// `(uint32_t)(int)floor(pos)`. Written so that it vectorises (a saturating `as` cast does
     /// not).
     fn cell_u32(self) -> u32;
+    /// `self·a + b`, fused (one rounding) where the target has FMA instructions, else two
+    /// operations (Rust never contracts `a*b + c` by itself, and a software `fma` call would be
+    /// far slower than the two roundings).
+    fn fma(self, a: Self, b: Self) -> Self;
     /// Softplus `ln(1 + e^{βz})/β` and its derivative `σ(βz)`, computed as
     /// `max(z,0) + ln1p(e^{−|βz|})/β` (no overflow, no threshold). `f64` uses the standard library;
     /// `f32` uses branch-free polynomial `exp`/`ln1p` that vectorise ([`fastmath`]), relative
@@ -166,6 +172,17 @@ macro_rules! impl_real {
             #[inline(always)]
             fn is_finite(self) -> bool {
                 <$t>::is_finite(self)
+            }
+            #[inline(always)]
+            fn fma(self, a: Self, b: Self) -> Self {
+                #[cfg(target_feature = "fma")]
+                {
+                    self.mul_add(a, b)
+                }
+                #[cfg(not(target_feature = "fma"))]
+                {
+                    self * a + b
+                }
             }
             #[inline(always)]
             fn cell_u32(self) -> u32 {

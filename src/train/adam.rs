@@ -110,27 +110,68 @@ impl AdamW {
         layout: &ParamLayout,
         factor: f32,
     ) -> Result<(), OptimError> {
+        self.check(params, grads, layout, factor)?;
+        self.write(params, grads, layout, factor);
+        Ok(())
+    }
+
+    /// [`step`](Self::step), then the gradients are set to zero in the same pass over memory (the
+    /// training loop needs zeroed gradients before the next step; this saves it a pass over the
+    /// buffer). On error nothing changes, the gradients included.
+    pub fn step_and_zero_grads(
+        &mut self,
+        params: &mut [f32],
+        grads: &mut [f32],
+        layout: &ParamLayout,
+        factor: f32,
+    ) -> Result<(), OptimError> {
+        self.check(params, grads, layout, factor)?;
+        self.write_zero(params, grads, layout, factor);
+        Ok(())
+    }
+
+    /// Per-step constants: bias corrections (`1 − β1^t`, `√(1 − β2^t)`) for step `t + 1`.
+    fn corrections(&self) -> (f32, f32) {
+        let c = &self.config;
+        let t = (self.t + 1).min(i32::MAX as u64) as i32;
+        (1.0 - c.beta1.powi(t), (1.0 - c.beta2.powi(t)).sqrt())
+    }
+
+    /// Pass 1: the updated values of every group are computed (vectorised, in parallel blocks)
+    /// and checked for finiteness; nothing is written. Only when a block fails is the exact
+    /// report (group, first index, count) computed.
+    fn check(
+        &self,
+        params: &[f32],
+        grads: &[f32],
+        layout: &ParamLayout,
+        factor: f32,
+    ) -> Result<(), OptimError> {
         let n = params.len();
-        if grads.len() != n || self.m.len() != n || layout.total() != n {
+        if grads.len() != n || self.m.len() != n || self.v.len() != n || layout.total() != n {
             return Err(OptimError::Length {
                 params: n,
                 grads: grads.len(),
                 layout: layout.total(),
             });
         }
-        let c = self.config.clone();
-        let t = self.t + 1;
-        let bc1 = 1.0 - c.beta1.powi(t.min(i32::MAX as u64) as i32);
-        let sbc2 = (1.0 - c.beta2.powi(t.min(i32::MAX as u64) as i32)).sqrt();
-        // Pass 1: check, write nothing.
+        let c = &self.config;
+        let (bc1, sbc2) = self.corrections();
         for grp in &layout.groups {
             let r = grp.range();
             let lr = c.lr * grp.lr_scale * factor;
-            let bad_g = first_bad(&grads[r.clone()], |i, &g| {
-                let _ = i;
-                !g.is_finite()
-            });
-            if let Some((index, count)) = bad_g {
+            let (pp, gg, mm, vv) = (
+                &params[r.clone()],
+                &grads[r.clone()],
+                &self.m[r.clone()],
+                &self.v[r.clone()],
+            );
+            let n_bad_g: usize = gg
+                .par_chunks(BLOCK)
+                .map(|b| b.iter().filter(|x| !x.is_finite()).count())
+                .sum();
+            if n_bad_g > 0 {
+                let (index, count) = first_bad(gg, |_, g| !g.is_finite()).expect("counted");
                 return Err(OptimError::NonFinite {
                     what: "gradient",
                     group: grp.name.clone(),
@@ -138,17 +179,25 @@ impl AdamW {
                     count,
                 });
             }
-            let (pp, gg, mm, vv) = (
-                &params[r.clone()],
-                &grads[r.clone()],
-                &self.m[r.clone()],
-                &self.v[r.clone()],
-            );
-            let bad_p = first_bad(pp, |i, &p| {
-                let (np, nm, nv) = Self::update(p, gg[i], mm[i], vv[i], lr, &c, bc1, sbc2);
-                !(np.is_finite() && nm.is_finite() && nv.is_finite())
-            });
-            if let Some((index, count)) = bad_p {
+            let n_bad_p: usize = pp
+                .par_chunks(BLOCK)
+                .zip(gg.par_chunks(BLOCK))
+                .zip(mm.par_chunks(BLOCK).zip(vv.par_chunks(BLOCK)))
+                .map(|((p, g), (m, v))| {
+                    let mut bad = 0usize;
+                    for i in 0..p.len() {
+                        let (np, nm, nv) = Self::update(p[i], g[i], m[i], v[i], lr, c, bc1, sbc2);
+                        bad += usize::from(!(np.is_finite() & nm.is_finite() & nv.is_finite()));
+                    }
+                    bad
+                })
+                .sum();
+            if n_bad_p > 0 {
+                let (index, count) = first_bad(pp, |i, &p| {
+                    let (np, nm, nv) = Self::update(p, gg[i], mm[i], vv[i], lr, c, bc1, sbc2);
+                    !(np.is_finite() && nm.is_finite() && nv.is_finite())
+                })
+                .expect("counted");
                 return Err(OptimError::NonFinite {
                     what: "updated parameter",
                     group: grp.name.clone(),
@@ -157,7 +206,13 @@ impl AdamW {
                 });
             }
         }
-        // Pass 2: write.
+        Ok(())
+    }
+
+    /// Pass 2: writes the updated parameters and moments (checked by [`check`](Self::check)).
+    fn write(&mut self, params: &mut [f32], grads: &[f32], layout: &ParamLayout, factor: f32) {
+        let c = self.config.clone();
+        let (bc1, sbc2) = self.corrections();
         for grp in &layout.groups {
             let r = grp.range();
             let lr = c.lr * grp.lr_scale * factor;
@@ -175,8 +230,38 @@ impl AdamW {
                     }
                 });
         }
-        self.t = t;
-        Ok(())
+        self.t += 1;
+    }
+
+    /// [`write`](Self::write), zeroing each gradient after use.
+    fn write_zero(
+        &mut self,
+        params: &mut [f32],
+        grads: &mut [f32],
+        layout: &ParamLayout,
+        factor: f32,
+    ) {
+        let c = self.config.clone();
+        let (bc1, sbc2) = self.corrections();
+        for grp in &layout.groups {
+            let r = grp.range();
+            let lr = c.lr * grp.lr_scale * factor;
+            params[r.clone()]
+                .par_chunks_mut(BLOCK)
+                .zip(grads[r.clone()].par_chunks_mut(BLOCK))
+                .zip(self.m[r.clone()].par_chunks_mut(BLOCK))
+                .zip(self.v[r.clone()].par_chunks_mut(BLOCK))
+                .for_each(|(((p, g), m), v)| {
+                    for i in 0..p.len() {
+                        let (np, nm, nv) = Self::update(p[i], g[i], m[i], v[i], lr, &c, bc1, sbc2);
+                        p[i] = np;
+                        m[i] = nm;
+                        v[i] = nv;
+                        g[i] = 0.0;
+                    }
+                });
+        }
+        self.t += 1;
     }
 }
 
@@ -301,5 +386,43 @@ mod tests {
             (p0, m0, v0, 1)
         );
         assert!(p.iter().all(|v| v.is_finite()));
+    }
+
+    /// The fused variant leaves the same parameters and moments as `step` and zeroed gradients;
+    /// on error it changes nothing, gradients included. Buffers span several parallel blocks.
+    #[test]
+    fn step_and_zero_grads_matches_step() {
+        let n = 3 * BLOCK + 17;
+        let l = layout(n);
+        let g: Vec<f32> = (0..n)
+            .map(|i| ((i * 7919) % 1000) as f32 * 1e-3 - 0.5)
+            .collect();
+        let p0: Vec<f32> = (0..n).map(|i| ((i * 104729) % 997) as f32 * 1e-3).collect();
+        let (mut p1, mut p2) = (p0.clone(), p0.clone());
+        let mut o1 = AdamW::new(AdamWConfig::default(), n);
+        let mut o2 = o1.clone();
+        for _ in 0..3 {
+            o1.step(&mut p1, &g, &l, 0.7).unwrap();
+            let mut g2 = g.clone();
+            o2.step_and_zero_grads(&mut p2, &mut g2, &l, 0.7).unwrap();
+            assert!(g2.iter().all(|&v| v == 0.0));
+        }
+        assert_eq!((&p1, &o1.m, &o1.v, o1.t), (&p2, &o2.m, &o2.v, o2.t));
+        let mut bad = g.clone();
+        bad[2 * BLOCK + 5] = f32::INFINITY;
+        let before = (p2.clone(), o2.clone(), bad.clone());
+        let err = o2
+            .step_and_zero_grads(&mut p2, &mut bad, &l, 0.7)
+            .unwrap_err();
+        assert_eq!(
+            err,
+            OptimError::NonFinite {
+                what: "gradient",
+                group: "a".into(),
+                index: 2 * BLOCK + 5,
+                count: 1
+            }
+        );
+        assert_eq!((p2, o2, bad), before);
     }
 }

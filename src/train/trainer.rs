@@ -158,7 +158,8 @@ impl<'a> Trainer<'a> {
         let mut aug_rng = Pcg64Mcg::seed_from_u64(step_seed(self.aug_seed, step, Stream::Augment));
         self.data
             .sample(state.num_rays, &mut rng, &mut aug_rng, &mut self.batch);
-        self.grads.iter_mut().for_each(|g| *g = 0.0);
+        // The gradient buffer is zero here: it starts zeroed and every optimiser step (or
+        // skipped step) below leaves it zeroed.
         let b = &self.batch;
         let out = model.train_step::<f32>(
             &state.params,
@@ -178,9 +179,9 @@ impl<'a> Trainer<'a> {
             step_seed(self.seed, step, Stream::Jitter),
         )?;
         let lr_factor = self.config.lr.factor(step, self.config.iterations);
-        let skipped = match state.adam.step(
+        let skipped = match state.adam.step_and_zero_grads(
             &mut state.params,
-            &self.grads,
+            &mut self.grads,
             &model.layout,
             lr_factor as f32,
         ) {
@@ -189,6 +190,8 @@ impl<'a> Trainer<'a> {
                 None
             }
             Err(e @ OptimError::NonFinite { .. }) => {
+                // A skipped step changes nothing, so the gradients are still to be cleared.
+                self.grads.iter_mut().for_each(|g| *g = 0.0);
                 self.consecutive_skips += 1;
                 state.skipped_steps += 1;
                 if self.consecutive_skips > self.config.max_consecutive_skips {
@@ -200,7 +203,10 @@ impl<'a> Trainer<'a> {
                 }
                 Some(e.to_string())
             }
-            Err(e) => return Err(TrainError::Optim(e)),
+            Err(e) => {
+                self.grads.iter_mut().for_each(|g| *g = 0.0);
+                return Err(TrainError::Optim(e));
+            }
         };
         let budget = rcfg.train_num_rays * rcfg.num_samples_per_ray;
         let rays = state.num_rays;

@@ -16,7 +16,8 @@ pub fn seed() -> u64 {
         .unwrap_or(12345)
 }
 
-/// A tiny model: 4 levels (two dense, two hashed), width-8 MLPs, appearance codes with the scalar.
+/// A tiny model: 4 levels (two dense, two hashed), width-16 MLPs (a width the register kernels
+/// specialise, so the gradient checks run them), appearance codes with the scalar.
 pub fn tiny_config() -> ModelConfig {
     ModelConfig {
         field: FieldConfig {
@@ -29,13 +30,13 @@ pub fn tiny_config() -> ModelConfig {
                 ..Default::default()
             },
             sdf: SdfMlpConfig {
-                n_neurons: 8,
+                n_neurons: 16,
                 n_hidden_layers: 1,
                 feature_dim: 5,
                 ..Default::default()
             },
             color: ColorMlpConfig {
-                n_neurons: 8,
+                n_neurons: 16,
                 n_hidden_layers: 2,
             },
             appearance: AppearanceConfig {
