@@ -252,14 +252,14 @@ impl Preset {
             Preset::Default => {
                 model.field.hash_grid.log2_hashmap_size = 17;
                 model.render.num_samples_per_ray = 512;
-                model.render.train_num_rays = 64;
+                model.render.train_num_rays = 128;
                 model.render.max_train_num_rays = 4096;
                 model.render.occupancy.resolution = 64;
-                train.iterations = 5000;
-                train.lr.constant_steps = 1500;
+                train.iterations = 8000;
+                train.lr.constant_steps = 2000;
                 train.lr.warmup_steps = 200;
                 train.checkpoint_every = 500;
-                model.render.cos_anneal_end = 5000;
+                model.render.cos_anneal_end = 8000;
                 mesh.coarse_res = 128;
                 mesh.fine_res = 512;
             }
@@ -497,8 +497,13 @@ impl RunConfig {
             ("eikonal", l.eikonal),
             ("mask", l.mask),
         ] {
-            if !(w.is_finite() && w >= 0.0) {
-                return Err(invalid(&format!("model.loss.{k}"), w, "must be ≥ 0"));
+            let (lo, hi) = w.bounds();
+            if !(lo.is_finite() && hi.is_finite() && lo >= 0.0) {
+                return Err(invalid(
+                    &format!("model.loss.{k}"),
+                    format!("{w:?}"),
+                    "must be ≥ 0",
+                ));
             }
         }
         self.model
@@ -645,6 +650,29 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("none.toml"), "{e}");
+    }
+
+    #[test]
+    fn loss_weights_follow_the_reference_schedule_helper() {
+        let sets = vec![
+            parse_set("model.loss.eikonal=[0, 0.1, 0.0, 10]").unwrap(),
+            parse_set("model.loss.mask=0.25").unwrap(),
+        ];
+        let c = resolve(Some(Preset::Fast), None, &sets).unwrap();
+        let at = |step| c.model.schedule(step).loss;
+        assert!((at(0).eikonal - 0.1).abs() < 1e-7);
+        assert!((at(5).eikonal - 0.05).abs() < 1e-7);
+        assert_eq!(at(50).eikonal, 0.0);
+        assert_eq!((at(0).mask, at(50).mask), (0.25, 0.25));
+        // The written configuration keeps the quadruple.
+        let back: RunConfig = toml::from_str(&c.to_toml()).unwrap();
+        assert_eq!(back.model.loss, c.model.loss);
+        let bad = resolve(
+            None,
+            None,
+            &[parse_set("model.loss.mask=[0, 0.1, -1.0, 10]").unwrap()],
+        );
+        assert!(bad.unwrap_err().to_string().contains("model.loss.mask"));
     }
 
     #[test]

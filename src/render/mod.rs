@@ -10,9 +10,10 @@ pub mod composite;
 pub mod model;
 pub mod occupancy;
 pub mod rays;
+pub mod scheduled;
 
 pub use model::{
-    LossConfig, ModelConfig, ModelError, NeusModel, PhaseTimes, RayBatch, RenderConfig,
-    RenderOutput, Schedule, StepOutput, Targets,
+    LossConfig, LossWeights, ModelConfig, ModelError, NeusModel, PhaseTimes, RayBatch,
+    RenderConfig, RenderOutput, Schedule, StepOutput, Targets,
 };
 pub use occupancy::{OccupancyConfig, OccupancyGrid};

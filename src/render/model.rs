@@ -28,6 +28,7 @@ use super::alpha::{inv_s_from_variance, neus_alpha, AlphaGrad};
 use super::composite::{composite_backward, composite_forward};
 use super::occupancy::{OccupancyConfig, OccupancyGrid};
 use super::rays::{march_rays, RaySamples};
+use super::scheduled::Scheduled;
 use crate::field::config::ConfigError;
 use crate::field::mlp::MlpTape;
 use crate::field::sh::{sh4, SH_DIM};
@@ -93,22 +94,46 @@ impl Default for RenderConfig {
 /// `lambda_rgb_l1: 1`, `lambda_rgb_mse: 0`, `lambda_eikonal: 0.1`. The mask BCE weight is 0.1 as in
 /// ../shared/DESIGN.md §5 and instant-nsr-pl `neus-blender.yaml` / `neuralangelo-dtu-wmask.yaml`
 /// (`neus-dtu-wmask.yaml` itself sets 0.0 and only masks the target colours).
+///
+/// Each weight is a [`Scheduled`] value, as instant-nsr-pl reads its `lambda_*` through `C()`: a
+/// number, or `[start_step, start, end, end_step]` (e.g. `eikonal = [0, 0.1, 0.01, 5000]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LossConfig {
+    pub rgb_l1: Scheduled,
+    pub rgb_mse: Scheduled,
+    pub eikonal: Scheduled,
+    pub mask: Scheduled,
+}
+
+impl Default for LossConfig {
+    fn default() -> Self {
+        Self {
+            rgb_l1: Scheduled::Constant(1.0),
+            rgb_mse: Scheduled::Constant(0.0),
+            eikonal: Scheduled::Constant(0.1),
+            mask: Scheduled::Constant(0.1),
+        }
+    }
+}
+
+/// The loss weights at one step (from [`LossConfig`] through [`ModelConfig::schedule`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LossWeights {
     pub rgb_l1: f32,
     pub rgb_mse: f32,
     pub eikonal: f32,
     pub mask: f32,
 }
 
-impl Default for LossConfig {
-    fn default() -> Self {
-        Self {
-            rgb_l1: 1.0,
-            rgb_mse: 0.0,
-            eikonal: 0.1,
-            mask: 0.1,
+impl LossConfig {
+    /// The weights at `step`.
+    pub fn at(&self, step: u64) -> LossWeights {
+        LossWeights {
+            rgb_l1: self.rgb_l1.at(step) as f32,
+            rgb_mse: self.rgb_mse.at(step) as f32,
+            eikonal: self.eikonal.at(step) as f32,
+            mask: self.mask.at(step) as f32,
         }
     }
 }
@@ -129,6 +154,8 @@ pub struct Schedule {
     pub cos_anneal: f32,
     /// Active hash-grid levels (progressive mask).
     pub active_levels: usize,
+    /// Loss weights.
+    pub loss: LossWeights,
 }
 
 impl ModelConfig {
@@ -142,6 +169,7 @@ impl ModelConfig {
                 (step as f64 / end as f64).min(1.0) as f32
             },
             active_levels: self.field.hash_grid.active_levels(step),
+            loss: self.loss.at(step),
         }
     }
 
@@ -150,6 +178,7 @@ impl ModelConfig {
         Schedule {
             cos_anneal: 1.0,
             active_levels: self.field.hash_grid.active_levels(step),
+            loss: self.loss.at(step),
         }
     }
 }
@@ -775,7 +804,7 @@ impl NeusModel {
         let var_off = self.layout.groups[3].offset;
         grads[var_off] += T::from_f64(sums.d_inv_s) * d_inv_s_dv;
         times.reduce = t1.elapsed().as_secs_f64();
-        let l = &self.config.loss;
+        let l = sched.loss;
         let nv = n_valid.max(1) as f64;
         let ns = samples.n_samples().max(1) as f64;
         let out = StepOutput {
@@ -1092,7 +1121,7 @@ impl NeusModel {
         }
         let Some(g) = g else { return };
         let Some(targets) = ctx.targets else { return };
-        let l = &self.config.loss;
+        let l = ctx.sched.loss;
         let n_rays = ctx.batch.origins.len().max(1) as f64;
         let nv = ctx.n_valid.max(1) as f64;
         let ns = samples.n_samples().max(1) as f64;

@@ -1,50 +1,16 @@
-//! Step-dependent values: the reference's four-number schedule and the learning-rate schedule.
+//! Step-dependent values: the learning-rate schedule, and (re-exported from
+//! [`crate::render::scheduled`]) the reference's four-number schedule of loss weights.
 //!
 //! Every function takes the step explicitly; nothing here holds mutable state, so a resumed run
 //! sees exactly the values an uninterrupted run would.
 
+pub use crate::render::scheduled::Scheduled;
 use serde::{Deserialize, Serialize};
-
-/// A value that may change with the training step, as instant-nsr-pl's `C()` helper reads
-/// config values (`systems/base.py`): either a constant, or `[start_step, start, end, end_step]`,
-/// linear from `start` at `start_step` to `end` at `end_step`, clamped outside. In TOML: `0.1`
-/// or `[0, 0.1, 0.0, 5000]`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum Schedule {
-    /// The same value at every step.
-    Constant(f64),
-    /// `[start_step, start_value, end_value, end_step]`.
-    Linear(u64, f64, f64, u64),
-}
-
-impl Schedule {
-    /// The value at `step`.
-    pub fn at(&self, step: u64) -> f64 {
-        match *self {
-            Schedule::Constant(v) => v,
-            Schedule::Linear(s0, v0, v1, s1) => {
-                if s1 <= s0 {
-                    return if step >= s1 { v1 } else { v0 };
-                }
-                let t = ((step as f64 - s0 as f64) / (s1 - s0) as f64).clamp(0.0, 1.0);
-                v0 + (v1 - v0) * t
-            }
-        }
-    }
-
-    /// The smallest and largest value the schedule takes.
-    pub fn bounds(&self) -> (f64, f64) {
-        match *self {
-            Schedule::Constant(v) => (v, v),
-            Schedule::Linear(_, a, b, _) => (a.min(b), a.max(b)),
-        }
-    }
-}
 
 /// The learning-rate multiplier: linear warm-up from `warmup_start` to 1 over `warmup_steps`,
 /// constant until `constant_steps`, then exponential decay reaching `final_factor` at the last
-/// step `max_steps` (the run's iteration count, passed to [`LrSchedule::factor`]) (instant-nsr-pl `configs/neus-dtu-wmask.yaml`: ConstantLR for 5000 steps then
+/// step `max_steps` (the run's iteration count, passed to [`LrSchedule::factor`]) (instant-nsr-pl
+/// `configs/neus-dtu-wmask.yaml`: ConstantLR for 5000 steps then
 /// ExponentialLR with `gamma = 0.1^(1/(max_steps - 5000))`; the warm-up follows NeuS's
 /// `warm_up_end`, and is off (0 steps) in the reference configuration).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -94,31 +60,6 @@ impl LrSchedule {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn four_number_schedule_matches_the_reference_rule() {
-        let s = Schedule::Linear(100, 1.0, 3.0, 300);
-        assert_eq!(s.at(0), 1.0);
-        assert_eq!(s.at(100), 1.0);
-        assert_eq!(s.at(200), 2.0);
-        assert_eq!(s.at(300), 3.0);
-        assert_eq!(s.at(10_000), 3.0);
-        assert_eq!(Schedule::Constant(0.1).at(7), 0.1);
-        assert_eq!(Schedule::Linear(5, 1.0, 2.0, 5).at(4), 1.0);
-        assert_eq!(Schedule::Linear(5, 1.0, 2.0, 5).at(5), 2.0);
-    }
-
-    #[test]
-    fn schedules_parse_from_toml_as_number_or_quadruple() {
-        #[derive(Deserialize)]
-        struct T {
-            a: Schedule,
-            b: Schedule,
-        }
-        let t: T = toml::from_str("a = 0.5\nb = [0, 1.0, 0.0, 10]").unwrap();
-        assert_eq!(t.a, Schedule::Constant(0.5));
-        assert_eq!(t.b, Schedule::Linear(0, 1.0, 0.0, 10));
-    }
 
     #[test]
     fn lr_is_constant_then_decays_to_the_final_factor() {

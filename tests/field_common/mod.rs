@@ -54,10 +54,10 @@ pub fn tiny_config() -> ModelConfig {
             ..Default::default()
         },
         loss: LossConfig {
-            rgb_l1: 1.0,
-            rgb_mse: 0.5,
-            eikonal: 0.1,
-            mask: 0.1,
+            rgb_l1: 1.0.into(),
+            rgb_mse: 0.5.into(),
+            eikonal: 0.1.into(),
+            mask: 0.1.into(),
         },
     }
 }

@@ -1,0 +1,77 @@
+//! A configuration value that may change with the training step, as instant-nsr-pl reads loss
+//! weights and annealing values. Nothing here holds state: the step is passed explicitly.
+
+use serde::{Deserialize, Serialize};
+
+/// A value that may change with the training step, as instant-nsr-pl's `C()` helper reads
+/// config values (`systems/base.py`): either a constant, or `[start_step, start, end, end_step]`,
+/// linear from `start` at `start_step` to `end` at `end_step`, clamped outside. In TOML: `0.1`
+/// or `[0, 0.1, 0.0, 5000]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Scheduled {
+    /// The same value at every step.
+    Constant(f64),
+    /// `[start_step, start_value, end_value, end_step]`.
+    Linear(u64, f64, f64, u64),
+}
+
+impl Scheduled {
+    /// The value at `step`.
+    pub fn at(&self, step: u64) -> f64 {
+        match *self {
+            Scheduled::Constant(v) => v,
+            Scheduled::Linear(s0, v0, v1, s1) => {
+                if s1 <= s0 {
+                    return if step >= s1 { v1 } else { v0 };
+                }
+                let t = ((step as f64 - s0 as f64) / (s1 - s0) as f64).clamp(0.0, 1.0);
+                v0 + (v1 - v0) * t
+            }
+        }
+    }
+
+    /// The smallest and largest value the schedule takes.
+    pub fn bounds(&self) -> (f64, f64) {
+        match *self {
+            Scheduled::Constant(v) => (v, v),
+            Scheduled::Linear(_, a, b, _) => (a.min(b), a.max(b)),
+        }
+    }
+}
+
+impl From<f64> for Scheduled {
+    fn from(v: f64) -> Self {
+        Scheduled::Constant(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn four_number_schedule_matches_the_reference_rule() {
+        let s = Scheduled::Linear(100, 1.0, 3.0, 300);
+        assert_eq!(s.at(0), 1.0);
+        assert_eq!(s.at(100), 1.0);
+        assert_eq!(s.at(200), 2.0);
+        assert_eq!(s.at(300), 3.0);
+        assert_eq!(s.at(10_000), 3.0);
+        assert_eq!(Scheduled::Constant(0.1).at(7), 0.1);
+        assert_eq!(Scheduled::Linear(5, 1.0, 2.0, 5).at(4), 1.0);
+        assert_eq!(Scheduled::Linear(5, 1.0, 2.0, 5).at(5), 2.0);
+    }
+
+    #[test]
+    fn schedules_parse_from_toml_as_number_or_quadruple() {
+        #[derive(Deserialize)]
+        struct T {
+            a: Scheduled,
+            b: Scheduled,
+        }
+        let t: T = toml::from_str("a = 0.5\nb = [0, 1.0, 0.0, 10]").unwrap();
+        assert_eq!(t.a, Scheduled::Constant(0.5));
+        assert_eq!(t.b, Scheduled::Linear(0, 1.0, 0.0, 10));
+    }
+}
