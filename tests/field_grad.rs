@@ -4,7 +4,7 @@
 mod field_common;
 
 use field_common::{batch, perturbed_params, seed, tiny_config};
-use neus_aug::render::{NeusModel, RayBatch, Targets};
+use neus_aug::render::NeusModel;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -15,16 +15,8 @@ fn full_loss_gradient_matches_central_differences() {
     let p32 = perturbed_params(&model, s);
     let mut p: Vec<f64> = p32.iter().map(|&v| v as f64).collect();
     let b = batch(24, s + 1);
-    let rays = RayBatch {
-        origins: &b.origins,
-        dirs: &b.dirs,
-        codes: &b.codes,
-        p: &b.p,
-    };
-    let targets = Targets {
-        rgb: &b.rgb,
-        mask: Some(&b.mask),
-    };
+    let rays = b.rays();
+    let targets = b.targets();
     let sched = model.config.schedule(40); // cos anneal 0.4: both anneal branches active
     let step_seed = 99;
     let mut grads = vec![0.0f64; p.len()];
@@ -92,16 +84,8 @@ fn f32_path_agrees_with_f64_and_is_deterministic() {
     let p32 = perturbed_params(&model, s);
     let p64: Vec<f64> = p32.iter().map(|&v| v as f64).collect();
     let b = batch(32, s + 5);
-    let rays = RayBatch {
-        origins: &b.origins,
-        dirs: &b.dirs,
-        codes: &b.codes,
-        p: &b.p,
-    };
-    let targets = Targets {
-        rgb: &b.rgb,
-        mask: Some(&b.mask),
-    };
+    let rays = b.rays();
+    let targets = b.targets();
     let sched = model.config.schedule(1000);
     let mut g32 = vec![0f32; p32.len()];
     let o32 = model

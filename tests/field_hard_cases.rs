@@ -21,16 +21,8 @@ fn inv_s_at_the_clip() {
     let var = model.layout.group("variance").unwrap().offset;
     p[var] = 3.0; // exp(30) ≫ 1e6
     let b = batch(16, 3);
-    let rays = RayBatch {
-        origins: &b.origins,
-        dirs: &b.dirs,
-        codes: &b.codes,
-        p: &b.p,
-    };
-    let t = Targets {
-        rgb: &b.rgb,
-        mask: Some(&b.mask),
-    };
+    let rays = b.rays();
+    let t = b.targets();
     let mut g = vec![0f32; p.len()];
     let o = model
         .train_step(&p, &mut g, &rays, &t, model.config.schedule(500), None, 1)
@@ -111,16 +103,8 @@ fn all_alphas_one() {
     p[last_bias] = -5.0;
     p[model.layout.group("variance").unwrap().offset] = 1.0; // inv_s = e^10
     let b = batch(8, 4);
-    let rays = RayBatch {
-        origins: &b.origins,
-        dirs: &b.dirs,
-        codes: &b.codes,
-        p: &b.p,
-    };
-    let t = Targets {
-        rgb: &b.rgb,
-        mask: Some(&b.mask),
-    };
+    let rays = b.rays();
+    let t = b.targets();
     let mut g = vec![0f32; p.len()];
     let o = model
         .train_step(&p, &mut g, &rays, &t, model.config.schedule(200), None, 1)
@@ -183,16 +167,8 @@ fn huge_learning_step_is_skipped() {
     let model = NeusModel::new(tiny_config()).unwrap();
     let mut p = perturbed_params(&model, seed());
     let b = batch(16, 5);
-    let rays = RayBatch {
-        origins: &b.origins,
-        dirs: &b.dirs,
-        codes: &b.codes,
-        p: &b.p,
-    };
-    let t = Targets {
-        rgb: &b.rgb,
-        mask: Some(&b.mask),
-    };
+    let rays = b.rays();
+    let t = b.targets();
     let mut g = vec![0f32; p.len()];
     model
         .train_step(&p, &mut g, &rays, &t, model.config.schedule(0), None, 1)

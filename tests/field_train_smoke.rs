@@ -5,7 +5,7 @@
 mod field_common;
 
 use field_common::{batch, tiny_config};
-use neus_aug::render::{NeusModel, RayBatch, Targets};
+use neus_aug::render::{NeusModel, Targets};
 use neus_aug::train::{AdamW, AdamWConfig};
 
 #[test]
@@ -20,12 +20,7 @@ fn a_few_steps_lower_the_loss() {
     let mut occ = model.new_occupancy_grid();
     let b = batch(64, 21);
     let target = vec![[0.2f32, 0.6, 0.3]; b.origins.len()];
-    let rays = RayBatch {
-        origins: &b.origins,
-        dirs: &b.dirs,
-        codes: &b.codes,
-        p: &b.p,
-    };
+    let rays = b.rays();
     let t = Targets {
         rgb: &target,
         mask: None,

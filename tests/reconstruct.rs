@@ -12,9 +12,10 @@ fn write_config(dir: &Path, extra: &str) -> std::path::PathBuf {
     common::tiny::write_config(dir, 24, extra)
 }
 
-fn reconstruct(config: &Path, out: &Path, extra: &[&str]) -> Output {
-    neus_aug()
-        .arg("reconstruct")
+/// `neus-aug reconstruct <tiny scene> --config CONFIG --out OUT --quiet EXTRA...`, not yet run.
+fn reconstruct_cmd(config: &Path, out: &Path, extra: &[&str]) -> Command {
+    let mut c = neus_aug();
+    c.arg("reconstruct")
         .arg(tiny_scene())
         .args([
             "--config",
@@ -23,9 +24,12 @@ fn reconstruct(config: &Path, out: &Path, extra: &[&str]) -> Output {
             out.to_str().unwrap(),
             "--quiet",
         ])
-        .args(extra)
-        .output()
-        .unwrap()
+        .args(extra);
+    c
+}
+
+fn reconstruct(config: &Path, out: &Path, extra: &[&str]) -> Output {
+    reconstruct_cmd(config, out, extra).output().unwrap()
 }
 
 fn ok(o: &Output) {
@@ -157,17 +161,7 @@ fn killed_process_resumes_to_the_same_mesh() {
     let full = tmp.path().join("full");
     ok(&reconstruct(&cfg, &full, &extra));
     let out = tmp.path().join("killed");
-    let mut child = neus_aug()
-        .arg("reconstruct")
-        .arg(tiny_scene())
-        .args([
-            "--config",
-            cfg.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--quiet",
-        ])
-        .args(extra)
+    let mut child = reconstruct_cmd(&cfg, &out, &extra)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()

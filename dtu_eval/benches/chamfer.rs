@@ -233,20 +233,9 @@ fn part_b(out: &Path) {
     );
     drop((mesh, gt));
     let args = EvalArgs {
-        mesh: mesh_path,
         scan: Some(scan),
         gt_root: Some(root),
-        reference: None,
-        json: None,
-        seed: 0,
-        density: 0.2,
-        patch_size: 60.0,
-        max_dist: None,
-        downsample: None,
-        vis_dir: None,
-        vis_threshold: 10.0,
-        dump_dir: None,
-        max_samples: dtu_eval::protocol::DEFAULT_MAX_SAMPLES,
+        ..EvalArgs::new(mesh_path)
     };
     let t = Instant::now();
     let report = run(&args).unwrap();

@@ -66,6 +66,29 @@ pub struct EvalArgs {
     pub max_samples: u64,
 }
 
+impl EvalArgs {
+    /// The arguments of `dtu-eval --mesh MESH` with every other option at its command-line
+    /// default (taken from the clap definition itself, so the two cannot drift apart). Set
+    /// `scan` + `gt_root` for DTU mode or `reference` for plain mode with struct update syntax.
+    pub fn new(mesh: impl Into<PathBuf>) -> Self {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: EvalArgs,
+        }
+        let mesh: PathBuf = mesh.into();
+        let argv = [
+            std::ffi::OsString::from("dtu-eval"),
+            "--mesh".into(),
+            mesh.into_os_string(),
+        ];
+        Cli::try_parse_from(argv)
+            .expect("`--mesh PATH` alone is a complete command line")
+            .args
+    }
+}
+
 /// Runs the evaluation the arguments describe, writes the requested files and returns the
 /// report (the caller prints [`Report::summary`]).
 pub fn run(args: &EvalArgs) -> Result<Report, EvalError> {

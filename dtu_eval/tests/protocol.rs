@@ -26,22 +26,20 @@ impl<T: std::fmt::Debug> ErrText for Result<T, EvalError> {
 }
 
 fn args(mesh: &Path) -> EvalArgs {
-    EvalArgs {
-        mesh: mesh.into(),
-        scan: None,
-        gt_root: None,
-        reference: None,
-        json: None,
-        seed: 0,
-        density: 0.2,
-        patch_size: 60.0,
-        max_dist: None,
-        downsample: None,
-        vis_dir: None,
-        vis_threshold: 10.0,
-        dump_dir: None,
-        max_samples: dtu_eval::protocol::DEFAULT_MAX_SAMPLES,
-    }
+    EvalArgs::new(mesh)
+}
+
+#[test]
+fn eval_args_new_has_the_protocol_defaults() {
+    let a = EvalArgs::new("m.ply");
+    assert_eq!(a.mesh, Path::new("m.ply"));
+    assert_eq!(
+        (a.density, a.patch_size, a.vis_threshold),
+        (0.2, 60.0, 10.0)
+    );
+    assert_eq!(a.max_samples, dtu_eval::protocol::DEFAULT_MAX_SAMPLES);
+    assert!(a.scan.is_none() && a.reference.is_none() && a.max_dist.is_none());
+    assert_eq!(a.seed, 0);
 }
 
 fn dtu_args(mesh: &Path, root: &Path) -> EvalArgs {

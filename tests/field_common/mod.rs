@@ -4,7 +4,7 @@
 
 use neus_aug::field::config::{AppearanceConfig, ColorMlpConfig, HashGridConfig, SdfMlpConfig};
 use neus_aug::field::FieldConfig;
-use neus_aug::render::{LossConfig, ModelConfig, NeusModel, RenderConfig};
+use neus_aug::render::{LossConfig, ModelConfig, NeusModel, RayBatch, RenderConfig, Targets};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -130,4 +130,24 @@ pub fn batch(n: usize, seed: u64) -> Batch {
         b.p.push(rng.random_range(-0.5..0.5));
     }
     b
+}
+
+impl Batch {
+    /// The rays of the batch, borrowed in the model's layout.
+    pub fn rays(&self) -> RayBatch<'_> {
+        RayBatch {
+            origins: &self.origins,
+            dirs: &self.dirs,
+            codes: &self.codes,
+            p: &self.p,
+        }
+    }
+
+    /// The batch's colours with its mask as targets.
+    pub fn targets(&self) -> Targets<'_> {
+        Targets {
+            rgb: &self.rgb,
+            mask: Some(&self.mask),
+        }
+    }
 }
