@@ -913,7 +913,8 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
     let _ = writeln!(
         md,
         "Files: `runs.csv` and `runs.json` (every run), `summary.json` (every aggregate and \
-         interval), `chamfer.png`{}{}.",
+         interval){}{}{}.",
+        if pareto { "" } else { ", `chamfer.png`" },
         if o.grid == Grid::Reduced {
             ", `chamfer_vs_views.png`"
         } else {

@@ -356,6 +356,7 @@ pub fn pareto_chart(title: &str, pts: &[ParetoPoint]) -> Result<Vec<u8>, StudyEr
         // earlier label (a greedy placement; good enough for a dozen points).
         let text = TextStyle::from((FONT, 13).into_font()).color(&BLACK);
         let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
+        let (area_x, area_y) = chart.plotting_area().get_pixel_range();
         for p in pts {
             let (px, py) = chart.backend_coord(&(p.time, p.chamfer));
             let w = 7 * p.label.chars().count() as i32;
@@ -370,9 +371,14 @@ pub fn pareto_chart(title: &str, pts: &[ParetoPoint]) -> Result<Vec<u8>, StudyEr
             ];
             let free = |(dx, dy): (i32, i32)| {
                 let (x, y) = (px + dx, py + dy);
-                !placed
-                    .iter()
-                    .any(|&(a, b, c, d)| x < a + c && a < x + w && y < b + d && b < y + h)
+                let inside = x >= area_x.start
+                    && x + w <= area_x.end
+                    && y >= area_y.start
+                    && y + h <= area_y.end;
+                inside
+                    && !placed
+                        .iter()
+                        .any(|&(a, b, c, d)| x < a + c && a < x + w && y < b + d && b < y + h)
             };
             let (dx, dy) = candidates
                 .into_iter()
