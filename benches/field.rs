@@ -261,17 +261,9 @@ fn gemm_compare(peak: f64) {
         let b: Vec<f32> = (0..k * n).map(|_| rng.random_range(-1.0..1.0)).collect();
         let mut c = vec![0f32; m * n];
         let sa = if tr {
-            Strided {
-                data: &a[..],
-                rs: 1,
-                cs: m,
-            }
+            Strided::transposed(&a[..], m)
         } else {
-            Strided {
-                data: &a[..],
-                rs: k,
-                cs: 1,
-            }
+            Strided::row_major(&a[..], k)
         };
         let flops = 2.0 * (m * k * n) as f64;
         let reps = (4e9 / flops).ceil() as usize;

@@ -24,6 +24,27 @@ pub struct Strided<'a, T> {
     pub cs: usize,
 }
 
+impl<'a, T> Strided<'a, T> {
+    /// A row-major matrix with leading dimension `ld`: `a(i, k) = data[i·ld + k]`.
+    pub fn row_major(data: &'a [T], ld: usize) -> Self {
+        Self {
+            data,
+            rs: ld,
+            cs: 1,
+        }
+    }
+
+    /// The transpose of a row-major matrix with leading dimension `ld`:
+    /// `a(i, k) = data[k·ld + i]`.
+    pub fn transposed(data: &'a [T], ld: usize) -> Self {
+        Self {
+            data,
+            rs: 1,
+            cs: ld,
+        }
+    }
+}
+
 /// What `C` starts from before the products are added.
 #[derive(Clone, Copy)]
 pub enum Init<'a, T> {
@@ -269,17 +290,9 @@ mod tests {
                     let ldc = n + 2;
                     let c0: Vec<f64> = (0..m * ldc).map(|_| rng.random_range(-1.0..1.0)).collect();
                     let sa = if transposed {
-                        Strided {
-                            data: &a[..],
-                            rs: 1,
-                            cs: m,
-                        }
+                        Strided::transposed(&a[..], m)
                     } else {
-                        Strided {
-                            data: &a[..],
-                            rs: kk,
-                            cs: 1,
-                        }
+                        Strided::row_major(&a[..], kk)
                     };
                     let mut c1 = c0.clone();
                     let mut c2 = c0.clone();

@@ -96,11 +96,7 @@ pub fn linear_forward_then<T: Real, F: FnMut(usize, &mut [T])>(
 ) {
     assert!(w.len() >= d_out * d_in && b.len() >= d_out);
     assert!(x.len() >= n * d_in && y.len() >= n * d_out);
-    let a = Strided {
-        data: x,
-        rs: d_in,
-        cs: 1,
-    };
+    let a = Strided::row_major(x, d_in);
     if fast_width(d_out) {
         let wt = transpose(&w[..d_out * d_in], d_in, d_out);
         dense::gemm_then(n, d_in, d_out, a, &wt, d_out, y, d_out, Init::Bias(b), post);
@@ -241,20 +237,12 @@ pub fn linear_backward_cols<T: Real>(
         return;
     }
     // gw (d_out×d_in) += dyᵀ (d_out×n) · x (n×d_in).
-    let dyt = Strided {
-        data: dy,
-        rs: 1,
-        cs: d_out,
-    };
+    let dyt = Strided::transposed(dy, d_out);
     if fast_width(d_in) || !fast_width(d_out) {
         dense::gemm(d_out, n, d_in, dyt, x, d_in, gw, d_in, Init::Accumulate);
     } else {
         // gwᵀ (d_in×d_out) = xᵀ · dy with the register kernel, then added transposed.
-        let xt = Strided {
-            data: x,
-            rs: 1,
-            cs: d_in,
-        };
+        let xt = Strided::transposed(x, d_in);
         let mut t = vec![T::ZERO; d_in * d_out];
         dense::gemm(d_in, n, d_out, xt, dy, d_out, &mut t, d_out, Init::Zero);
         for o in 0..d_out {
@@ -274,11 +262,7 @@ pub fn linear_backward_cols<T: Real>(
             return;
         }
         // dx[:, cols] (n×|cols|) = dy (n×d_out) · W[:, cols] (d_out×|cols|).
-        let a = Strided {
-            data: dy,
-            rs: d_out,
-            cs: 1,
-        };
+        let a = Strided::row_major(dy, d_out);
         let width = cols.len();
         let c0 = cols.start;
         dense::gemm(

@@ -474,6 +474,21 @@ fn rank_marks(vals: &[Option<f64>], prec: usize) -> Vec<String> {
         .collect()
 }
 
+/// One table line per row: its label, then `cell(row, arm)` for every arm.
+fn arm_rows(
+    rows: &[Row],
+    arms: &[AugMode],
+    cell: impl Fn(&Row, AugMode) -> String,
+) -> Vec<Vec<String>> {
+    rows.iter()
+        .map(|r| {
+            let mut line = vec![r.label.clone()];
+            line.extend(arms.iter().map(|&a| cell(r, a)));
+            line
+        })
+        .collect()
+}
+
 fn md_table(out: &mut String, header: &[String], rows: &[Vec<String>]) {
     let _ = writeln!(out, "| {} |", header.join(" | "));
     let _ = writeln!(
@@ -676,18 +691,9 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
 
     // Standard deviations.
     let _ = writeln!(md, "## Standard deviation over seeds (mm)\n");
-    let t: Vec<Vec<String>> = rows
-        .iter()
-        .map(|r| {
-            let mut line = vec![r.label.clone()];
-            line.extend(
-                lay.arms
-                    .iter()
-                    .map(|&a| fmt_opt(lay.row_std(r, a, m_chamfer), 3)),
-            );
-            line
-        })
-        .collect();
+    let t = arm_rows(&rows, &lay.arms, |r, a| {
+        fmt_opt(lay.row_std(r, a, m_chamfer), 3)
+    });
     md_table(&mut md, &arm_header(first_col), &t);
     let _ = writeln!(
         md,
@@ -696,20 +702,13 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
 
     // Accuracy / completeness.
     let _ = writeln!(md, "## Accuracy / completeness (mm)\n");
-    let t: Vec<Vec<String>> = rows
-        .iter()
-        .map(|r| {
-            let mut line = vec![r.label.clone()];
-            line.extend(lay.arms.iter().map(|&a| {
-                format!(
-                    "{} / {}",
-                    fmt_opt(lay.row_mean(r, a, m_acc), 3),
-                    fmt_opt(lay.row_mean(r, a, m_comp), 3)
-                )
-            }));
-            line
-        })
-        .collect();
+    let t = arm_rows(&rows, &lay.arms, |r, a| {
+        format!(
+            "{} / {}",
+            fmt_opt(lay.row_mean(r, a, m_acc), 3),
+            fmt_opt(lay.row_mean(r, a, m_comp), 3)
+        )
+    });
     md_table(&mut md, &arm_header(first_col), &t);
 
     // Paired differences.
@@ -789,18 +788,9 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
 
     // Held-out PSNR.
     let _ = writeln!(md, "## Held-out views: PSNR (dB, higher is better)\n");
-    let t: Vec<Vec<String>> = rows
-        .iter()
-        .map(|r| {
-            let mut line = vec![r.label.clone()];
-            line.extend(
-                lay.arms
-                    .iter()
-                    .map(|&a| fmt_opt(lay.row_mean(r, a, m_psnr), 2)),
-            );
-            line
-        })
-        .collect();
+    let t = arm_rows(&rows, &lay.arms, |r, a| {
+        fmt_opt(lay.row_mean(r, a, m_psnr), 2)
+    });
     md_table(&mut md, &arm_header(first_col), &t);
 
     // Time per arm and condition.
@@ -882,18 +872,9 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
 
     // Counts and missing runs.
     let _ = writeln!(md, "## Runs collected / planned\n");
-    let t: Vec<Vec<String>> = rows
-        .iter()
-        .map(|r| {
-            let mut line = vec![r.label.clone()];
-            line.extend(
-                lay.arms
-                    .iter()
-                    .map(|&a| format!("{}/{}", lay.row_n(r, a, m_chamfer), lay.planned_n(r, a))),
-            );
-            line
-        })
-        .collect();
+    let t = arm_rows(&rows, &lay.arms, |r, a| {
+        format!("{}/{}", lay.row_n(r, a, m_chamfer), lay.planned_n(r, a))
+    });
     md_table(&mut md, &arm_header(first_col), &t);
     let resumed: Vec<&str> = records
         .iter()

@@ -70,6 +70,20 @@ fn s<E: std::fmt::Display>(e: E) -> String {
     e.to_string()
 }
 
+/// The series legend every chart here uses: upper right, framed, on a translucent white box.
+fn legend<'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, BitMapBackend<'a>, CT>,
+) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FONT, 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(s)
+}
+
 /// Grouped bars with error bars: `values[group][series] = Some((mean, half-height))`.
 pub struct Bars {
     pub title: String,
@@ -152,14 +166,7 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
             }
             chart.draw_series(whiskers).map_err(s)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 15))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(s)?;
+        legend(&mut chart)?;
         // Group names under the axis, centred on their groups.
         let style = TextStyle::from((FONT, 14).into_font()).color(&BLACK).pos(
             plotters::style::text_anchor::Pos::new(
@@ -257,14 +264,7 @@ pub fn line_chart(name: &str, l: &Lines) -> Result<Vec<u8>, StudyError> {
             }
             chart.draw_series(bars).map_err(s)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 15))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(s)?;
+        legend(&mut chart)?;
         Ok(())
     })
 }
@@ -392,14 +392,7 @@ pub fn pareto_chart(title: &str, pts: &[ParetoPoint]) -> Result<Vec<u8>, StudyEr
             ))
             .map_err(s)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 15))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(s)?;
+        legend(&mut chart)?;
         Ok(())
     })
 }
