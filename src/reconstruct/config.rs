@@ -497,13 +497,8 @@ impl RunConfig {
             ("eikonal", l.eikonal),
             ("mask", l.mask),
         ] {
-            let (lo, hi) = w.bounds();
-            if !(lo.is_finite() && hi.is_finite() && lo >= 0.0) {
-                return Err(invalid(
-                    &format!("model.loss.{k}"),
-                    format!("{w:?}"),
-                    "must be ≥ 0",
-                ));
+            if let Err(why) = w.check() {
+                return Err(invalid(&format!("model.loss.{k}"), w, why));
             }
         }
         self.model

@@ -8,12 +8,27 @@ use serde::{Deserialize, Serialize};
 /// linear from `start` at `start_step` to `end` at `end_step`, clamped outside. In TOML: `0.1`
 /// or `[0, 0.1, 0.0, 5000]`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "a number, or [start_step, start_value, end_value, end_step] with integer steps"
+)]
 pub enum Scheduled {
     /// The same value at every step.
     Constant(f64),
-    /// `[start_step, start_value, end_value, end_step]`.
+    /// `[start_step, start_value, end_value, end_step]`. `end_step == start_step` switches from
+    /// `start_value` to `end_value` at that step; `end_step < start_step` is invalid
+    /// ([`Scheduled::check`]).
     Linear(u64, f64, f64, u64),
+}
+
+impl std::fmt::Display for Scheduled {
+    /// The TOML spelling: `0.1` or `[0, 0.1, 0, 5000]`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Scheduled::Constant(v) => write!(f, "{v}"),
+            Scheduled::Linear(s0, v0, v1, s1) => write!(f, "[{s0}, {v0}, {v1}, {s1}]"),
+        }
+    }
 }
 
 impl Scheduled {
@@ -29,6 +44,24 @@ impl Scheduled {
                 v0 + (v1 - v0) * t
             }
         }
+    }
+
+    /// Checks that every value is finite and ≥ 0 (as loss weights must be) and that the steps are
+    /// in order; the error says which.
+    pub fn check(&self) -> Result<(), &'static str> {
+        let (lo, hi) = self.bounds();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return Err("values must be finite");
+        }
+        if lo < 0.0 {
+            return Err("must be ≥ 0");
+        }
+        if let Scheduled::Linear(s0, _, _, s1) = *self {
+            if s1 < s0 {
+                return Err("end_step must not come before start_step");
+            }
+        }
+        Ok(())
     }
 
     /// The smallest and largest value the schedule takes.
@@ -73,5 +106,30 @@ mod tests {
         let t: T = toml::from_str("a = 0.5\nb = [0, 1.0, 0.0, 10]").unwrap();
         assert_eq!(t.a, Scheduled::Constant(0.5));
         assert_eq!(t.b, Scheduled::Linear(0, 1.0, 0.0, 10));
+        let e = toml::from_str::<T>("a = 0.5\nb = [0, 1.0]")
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("start_step, start_value, end_value, end_step"),
+            "{e}"
+        );
+        assert_eq!(t.b.to_string(), "[0, 1, 0, 10]");
+        assert_eq!(t.a.to_string(), "0.5");
+    }
+
+    #[test]
+    fn check_rejects_negative_non_finite_and_reversed_schedules() {
+        assert!(Scheduled::Constant(0.0).check().is_ok());
+        assert!(Scheduled::Linear(5, 1.0, 2.0, 5).check().is_ok());
+        assert_eq!(Scheduled::Constant(-0.1).check(), Err("must be ≥ 0"));
+        assert_eq!(
+            Scheduled::Linear(0, 0.1, f64::NAN, 10).check(),
+            Err("values must be finite")
+        );
+        assert_eq!(
+            Scheduled::Linear(10, 0.1, 0.0, 5).check(),
+            Err("end_step must not come before start_step")
+        );
     }
 }
