@@ -49,11 +49,14 @@ impl Scheduled {
     /// Checks that every value is finite and ≥ 0 (as loss weights must be) and that the steps are
     /// in order; the error says which.
     pub fn check(&self) -> Result<(), &'static str> {
-        let (lo, hi) = self.bounds();
-        if !(lo.is_finite() && hi.is_finite()) {
+        let (a, b) = match *self {
+            Scheduled::Constant(v) => (v, v),
+            Scheduled::Linear(_, a, b, _) => (a, b),
+        };
+        if !(a.is_finite() && b.is_finite()) {
             return Err("values must be finite");
         }
-        if lo < 0.0 {
+        if a.min(b) < 0.0 {
             return Err("must be ≥ 0");
         }
         if let Scheduled::Linear(s0, _, _, s1) = *self {
