@@ -66,14 +66,6 @@ impl Scheduled {
         }
         Ok(())
     }
-
-    /// The smallest and largest value the schedule takes.
-    pub fn bounds(&self) -> (f64, f64) {
-        match *self {
-            Scheduled::Constant(v) => (v, v),
-            Scheduled::Linear(_, a, b, _) => (a.min(b), a.max(b)),
-        }
-    }
 }
 
 impl From<f64> for Scheduled {
