@@ -10,7 +10,26 @@ use rand_pcg::Pcg64Mcg;
 
 #[test]
 fn full_loss_gradient_matches_central_differences() {
-    let model = NeusModel::new(tiny_config()).unwrap();
+    check_full_gradient(tiny_config());
+}
+
+/// The recipe terms of issue 13 on top of the default losses: curvature (Laplacian from the
+/// taps and the centre), NeuS-style colour loss inside the mask, and both mask BCE forms.
+#[test]
+fn recipe_loss_gradients_match_central_differences() {
+    use neus_aug::render::{MaskBce, Scheduled};
+    for (bce, in_mask) in [(MaskBce::Squash, true), (MaskBce::Clamp, false)] {
+        let mut cfg = tiny_config();
+        cfg.loss.curvature = Scheduled::Constant(0.05);
+        cfg.loss.mask_bce = bce;
+        cfg.loss.color_in_mask = in_mask;
+        let out = check_full_gradient(cfg);
+        assert!(out.curvature > 0.0, "{out:?}");
+    }
+}
+
+fn check_full_gradient(cfg: neus_aug::render::ModelConfig) -> neus_aug::render::StepOutput {
+    let model = NeusModel::new(cfg).unwrap();
     let s = seed();
     let p32 = perturbed_params(&model, s);
     let mut p: Vec<f64> = p32.iter().map(|&v| v as f64).collect();
@@ -75,6 +94,7 @@ fn full_loss_gradient_matches_central_differences() {
         fails.len(),
         fails.join("\n")
     );
+    out
 }
 
 #[test]

@@ -36,6 +36,7 @@
 //! # Ok::<(), neus_aug::mesh::McError>(())
 //! ```
 
+pub mod clean;
 pub mod extract;
 mod mcubes;
 pub mod reference;

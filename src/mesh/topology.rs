@@ -26,6 +26,12 @@ pub struct TopologyReport {
     pub components: usize,
     /// `V − E + F` (2 per sphere-like closed component, 0 for a torus).
     pub euler_characteristic: i64,
+    /// Closed loops formed by the boundary edges (0 for a closed mesh).
+    pub boundary_loops: usize,
+    /// Total genus `Σ_c (2 − χ_c − b_c) / 2` over components `c` (Euler characteristic `χ_c`,
+    /// boundary loops `b_c`), the classification of compact orientable surfaces; exact for
+    /// edge-manifold meshes, indicative otherwise. A sphere or disc is 0, a torus 1.
+    pub genus: i64,
 }
 
 impl TopologyReport {
@@ -72,6 +78,9 @@ impl TopologyReport {
         let components = (0..nv)
             .filter(|&v| referenced[v] && uf.find(v) == v)
             .count();
+        let genus = Self::genus(mesh, &half, &referenced, &mut uf);
+        let boundary_loops = genus.1;
+        let genus = genus.0;
         Self {
             vertices: nv,
             faces: mesh.faces.len(),
@@ -83,7 +92,59 @@ impl TopologyReport {
             unreferenced_vertices,
             components,
             euler_characteristic: nv as i64 - edges as i64 + mesh.faces.len() as i64,
+            boundary_loops,
+            genus,
         }
+    }
+
+    /// `(genus, boundary loops)` from the sorted half-edge keys (see the field docs).
+    fn genus(
+        mesh: &TriMesh,
+        half: &[(u64, bool)],
+        referenced: &[bool],
+        uf: &mut UnionFind,
+    ) -> (i64, usize) {
+        use std::collections::HashMap;
+        let nv = referenced.len();
+        // Per component (keyed by its root vertex): V, E, F, and the boundary loops.
+        let mut chi: HashMap<usize, i64> = HashMap::new();
+        for v in (0..nv).filter(|&v| referenced[v]) {
+            *chi.entry(uf.find(v)).or_default() += 1;
+        }
+        for f in &mesh.faces {
+            *chi.entry(uf.find(f[0] as usize)).or_default() += 1;
+        }
+        let mut loops = UnionFind::new(nv);
+        let mut on_boundary = vec![false; nv];
+        let mut s = 0;
+        while s < half.len() {
+            let mut e = s + 1;
+            while e < half.len() && half[e].0 == half[s].0 {
+                e += 1;
+            }
+            let (a, b) = (
+                (half[s].0 >> 32) as usize,
+                (half[s].0 & 0xffff_ffff) as usize,
+            );
+            *chi.entry(uf.find(a)).or_default() -= 1;
+            if e - s == 1 {
+                loops.union(a, b);
+                on_boundary[a] = true;
+                on_boundary[b] = true;
+            }
+            s = e;
+        }
+        let mut b_per: HashMap<usize, i64> = HashMap::new();
+        let mut n_loops = 0;
+        for v in (0..nv).filter(|&v| on_boundary[v] && loops.find(v) == v) {
+            *b_per.entry(uf.find(v)).or_default() += 1;
+            n_loops += 1;
+        }
+        let genus = chi
+            .iter()
+            .map(|(root, &x)| (2 - x - b_per.get(root).copied().unwrap_or(0)).max(0) / 2)
+            .sum();
+        (genus, n_loops)
     }
 
     /// Closed (no boundary edge), edge-manifold and consistently oriented.
@@ -111,24 +172,24 @@ pub fn signed_volume(mesh: &TriMesh) -> f64 {
         / 6.0
 }
 
-struct UnionFind {
+pub(crate) struct UnionFind {
     parent: Vec<usize>,
 }
 
 impl UnionFind {
-    fn new(n: usize) -> Self {
+    pub(crate) fn new(n: usize) -> Self {
         Self {
             parent: (0..n).collect(),
         }
     }
-    fn find(&mut self, mut x: usize) -> usize {
+    pub(crate) fn find(&mut self, mut x: usize) -> usize {
         while self.parent[x] != x {
             self.parent[x] = self.parent[self.parent[x]];
             x = self.parent[x];
         }
         x
     }
-    fn union(&mut self, a: usize, b: usize) {
+    pub(crate) fn union(&mut self, a: usize, b: usize) {
         let (ra, rb) = (self.find(a), self.find(b));
         if ra != rb {
             self.parent[ra.max(rb)] = ra.min(rb);
@@ -159,6 +220,7 @@ mod tests {
         let r = TopologyReport::of(&m);
         assert!(r.is_closed_manifold(), "{r:?}");
         assert_eq!((r.edges, r.euler_characteristic, r.components), (6, 2, 1));
+        assert_eq!((r.genus, r.boundary_loops), (0, 0));
         assert!((signed_volume(&m) - 1.0 / 6.0).abs() < 1e-12);
     }
 
@@ -168,6 +230,11 @@ mod tests {
         m.faces.pop();
         let r = TopologyReport::of(&m);
         assert_eq!(r.boundary_edges, 3);
+        assert_eq!(
+            (r.genus, r.boundary_loops),
+            (0, 1),
+            "a tetrahedron less a face is a disc"
+        );
         let mut m = tetra();
         m.faces[3] = [1, 3, 2]; // flipped
         let r = TopologyReport::of(&m);
@@ -190,5 +257,27 @@ mod tests {
         m.faces.extend(t.faces.iter().map(|f| f.map(|i| i + 4)));
         let r = TopologyReport::of(&m);
         assert_eq!((r.components, r.euler_characteristic), (2, 4));
+        assert_eq!(r.genus, 0);
+    }
+
+    #[test]
+    fn genus_of_marching_cubes_shapes() {
+        use crate::mesh::{marching_cubes, sdf::Shape, GridSpec, McOptions};
+        for (name, g) in [("sphere", 0), ("torus", 1)] {
+            let s = Shape::named(name).unwrap();
+            let grid = GridSpec::cube([-1.0; 3], [1.0; 3], 48);
+            let m = marching_cubes(
+                &|p: &[[f32; 3]]| s.eval_batch(p),
+                &grid,
+                &McOptions::default(),
+            )
+            .unwrap();
+            let r = TopologyReport::of(&m);
+            assert_eq!(
+                (r.genus, r.boundary_loops, r.components),
+                (g, 0, 1),
+                "{name}: {r:?}"
+            );
+        }
     }
 }

@@ -157,6 +157,16 @@ pub struct MeshConfig {
     pub fine_res: usize,
     /// Padding of the refined box, as a fraction of the coarse mesh's extent.
     pub pad_fraction: f32,
+    /// Clean the mesh before writing and scoring it (`mesh::clean`: mask culling, then small
+    /// components). The raw marching-cubes mesh is kept as `mesh_raw.ply` when anything was
+    /// removed.
+    pub clean: bool,
+    /// Remove components whose area is below this share of the largest component's (`[0, 1]`).
+    pub clean_min_area_share: f64,
+    /// Cull what a training view sees outside its dilated mask (only when the scene has masks).
+    pub clean_mask_cull: bool,
+    /// Mask dilation before culling, pixels of the training images.
+    pub clean_dilate_px: usize,
 }
 
 impl Default for MeshConfig {
@@ -165,6 +175,10 @@ impl Default for MeshConfig {
             coarse_res: 128,
             fine_res: 512,
             pad_fraction: 0.1,
+            clean: true,
+            clean_min_area_share: 0.02,
+            clean_mask_cull: true,
+            clean_dilate_px: 4,
         }
     }
 }
@@ -480,6 +494,13 @@ impl RunConfig {
                 "mesh.fine_res",
                 m.fine_res.min(m.coarse_res),
                 "must be at least 2",
+            ));
+        }
+        if !(0.0..=1.0).contains(&m.clean_min_area_share) {
+            return Err(invalid(
+                "mesh.clean_min_area_share",
+                m.clean_min_area_share,
+                "must be in [0, 1]",
             ));
         }
         let r = &self.model.render;

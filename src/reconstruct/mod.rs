@@ -7,16 +7,18 @@
 //! held-out views (PSNR, SSIM).
 //!
 //! Output folder: `config.toml` (resolved configuration, written first), `checkpoint.safetensors`,
-//! `mesh.ply` (world mm, binary), `renders/`, and `metrics.json`, written last: a folder without
+//! `mesh.ply` (world mm, binary, cleaned: `mesh::clean`), `mesh_raw.ply` (the marching-cubes mesh before clean-up, when that removed anything), `renders/`, and `metrics.json`, written last: a folder without
 //! `metrics.json` holds an unfinished run, never one that looks complete.
 
 pub mod config;
+pub mod normal_error;
 
 pub use config::{
     parse_set, resolve, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig, Preset, RunConfig,
 };
 
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
+use crate::mesh::clean::{clean_mesh, CleanOptions};
 use crate::mesh::{extract_two_pass, to_world, McError, McOptions, TopologyReport, TwoPassOptions};
 use crate::render::model::{ModelError, NeusModel, RayBatch};
 use crate::scene::sim::{self, SimError};
@@ -198,6 +200,11 @@ pub struct ViewMetrics {
     pub view: usize,
     pub psnr: f64,
     pub ssim: Option<f64>,
+    /// Mean angle (degrees) between rendered and ground-truth normals where both see surface
+    /// (`normal_error` module); `None` without a ground-truth mesh in the scene folder.
+    pub normal_error_deg: Option<f64>,
+    /// Intersection over union of `opacity > 0.5` and `mask > 0.5` (`None` without a mask).
+    pub mask_iou: Option<f64>,
 }
 
 /// Seconds per phase.
@@ -236,6 +243,16 @@ pub struct MeshSummary {
     pub boundary_edges: usize,
     pub non_manifold_edges: usize,
     pub components: usize,
+    /// Genus of the written (cleaned) mesh (`TopologyReport::genus`).
+    pub genus: i64,
+    /// Genus of the raw marching-cubes mesh: what the SDF itself represents (closed mesh).
+    pub raw_genus: i64,
+    /// Components of the raw mesh.
+    pub raw_components: usize,
+    /// Faces of the raw mesh.
+    pub raw_faces: usize,
+    /// What the clean-up removed (`None` when `mesh.clean = false`).
+    pub clean: Option<crate::mesh::clean::CleanReport>,
 }
 
 /// Everything `metrics.json` holds.
@@ -251,6 +268,10 @@ pub struct Metrics {
     pub eval_note: Option<String>,
     pub psnr_heldout: Option<f64>,
     pub ssim_heldout: Option<f64>,
+    /// Pixel-weighted mean normal angular error over the held-out views (degrees).
+    pub normal_error_deg: Option<f64>,
+    /// Mean silhouette IoU over the held-out views that have masks.
+    pub mask_iou_heldout: Option<f64>,
     pub heldout: Vec<ViewMetrics>,
     pub train: TrainSummary,
     pub mesh: MeshSummary,
@@ -310,7 +331,7 @@ fn prepare_output(out: &Path, opts: &RunOptions) -> Result<(), ReconstructError>
     }
     std::fs::create_dir_all(out).map_err(io_err(out))?;
     if opts.force {
-        for f in ["metrics.json", "mesh.ply"] {
+        for f in ["metrics.json", "mesh.ply", "mesh_raw.ply"] {
             let _ = std::fs::remove_file(out.join(f));
         }
         if !opts.resume {
@@ -582,9 +603,39 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             mc: McOptions::default(),
         },
     )?;
-    let mut mesh = two.mesh;
+    let raw = two.mesh;
+    let topo_raw = TopologyReport::of(&raw);
+    let (mut mesh, clean) = if cfg.mesh.clean {
+        let views: Vec<(&crate::scene::Camera, &GrayImage)> = train_idx
+            .iter()
+            .filter_map(|&i| {
+                let v = &scene.views[i];
+                v.mask.as_ref().map(|m| (&v.camera, m))
+            })
+            .collect();
+        let (m, rep) = clean_mesh(
+            &raw,
+            &views,
+            &CleanOptions {
+                min_area_share: cfg.mesh.clean_min_area_share,
+                mask_cull: cfg.mesh.clean_mask_cull,
+                dilate_px: cfg.mesh.clean_dilate_px,
+            },
+        );
+        (m, Some(rep))
+    } else {
+        (raw.clone(), None)
+    };
     to_world(&mut mesh, &scene.normalization);
     let topo = TopologyReport::of(&mesh);
+    let raw_path = out.join("mesh_raw.ply");
+    if mesh.faces.len() != raw.faces.len() {
+        let mut raw = raw;
+        to_world(&mut raw, &scene.normalization);
+        dtu_eval::ply::write_mesh(&raw_path, &raw)?;
+    } else if raw_path.is_file() {
+        std::fs::remove_file(&raw_path).map_err(io_err(&raw_path))?;
+    }
     dtu_eval::ply::write_mesh(&out.join("mesh.ply"), &mesh)?;
     timings.mesh = t.elapsed().as_secs_f64();
     say(
@@ -651,6 +702,15 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     }
     let k = cfg.data.render_downscale as usize;
     let sched = model.config.inference_schedule(iters);
+    // Ground-truth normals where the scene folder has its mesh (synthetic scenes).
+    let gt_mesh_path = scene_ref.dir.join("gt_mesh.ply");
+    let gt_normals = if heldout.is_empty() || !gt_mesh_path.is_file() {
+        None
+    } else {
+        let m = dtu_eval::ply::read_mesh(&gt_mesh_path)?;
+        normal_error::GtNormals::new(&m, &scene.normalization)
+    };
+    let (mut nerr_sum, mut nerr_px) = (0.0f64, 0usize);
     for &v in &heldout {
         let view = &scene.views[v];
         let cam = view.camera.downscaled(k as u32);
@@ -692,10 +752,34 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         rgb.save(&renders.join(format!("view{v:03}_rgb.png")))?;
         normal.save(&renders.join(format!("view{v:03}_normal.png")))?;
         gt.save(&renders.join(format!("view{v:03}_gt.png")))?;
+        let normal_error_deg = gt_normals.as_ref().and_then(|g| {
+            let (s, n) = g.angular_error(&origins, &dirs, &o.normal, &o.opacity);
+            nerr_sum += s;
+            nerr_px += n;
+            (n > 0).then(|| s / n as f64)
+        });
+        // Silhouette agreement: a membrane across a hole, or a floater, is opacity where the
+        // held-out mask says background.
+        let mask_iou = view.mask.as_ref().map(|m| {
+            let m = m.downscaled(k);
+            let (mut inter, mut union) = (0usize, 0usize);
+            for (&mv, &op) in m.data.iter().zip(&o.opacity) {
+                let (a, b) = (mv > 0.5, op > 0.5);
+                inter += (a && b) as usize;
+                union += (a || b) as usize;
+            }
+            if union == 0 {
+                1.0
+            } else {
+                inter as f64 / union as f64
+            }
+        });
         heldout_metrics.push(ViewMetrics {
             view: v,
             psnr: psnr(&rgb, &gt),
             ssim: ssim(&rgb, &gt),
+            normal_error_deg,
+            mask_iou,
         });
     }
     timings.render = t.elapsed().as_secs_f64();
@@ -728,6 +812,8 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         eval_note,
         psnr_heldout,
         ssim_heldout,
+        normal_error_deg: (nerr_px > 0).then(|| nerr_sum / nerr_px as f64),
+        mask_iou_heldout: mean(&|m| m.mask_iou),
         heldout: heldout_metrics,
         train: train_summary,
         mesh: MeshSummary {
@@ -736,6 +822,11 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             boundary_edges: topo.boundary_edges,
             non_manifold_edges: topo.non_manifold_edges,
             components: topo.components,
+            genus: topo.genus,
+            raw_genus: topo_raw.genus,
+            raw_components: topo_raw.components,
+            raw_faces: topo_raw.faces,
+            clean,
         },
         timings_s: timings,
         threads: rayon::current_num_threads(),

@@ -13,7 +13,8 @@ pub mod rays;
 pub mod scheduled;
 
 pub use model::{
-    LossConfig, LossWeights, ModelConfig, ModelError, NeusModel, PhaseTimes, RayBatch,
+    LossConfig, LossWeights, MaskBce, ModelConfig, ModelError, NeusModel, PhaseTimes, RayBatch,
     RenderConfig, RenderOutput, Schedule, StepOutput, Targets,
 };
 pub use occupancy::{OccupancyConfig, OccupancyGrid};
+pub use scheduled::Scheduled;

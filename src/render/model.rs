@@ -104,6 +104,33 @@ pub struct LossConfig {
     pub rgb_mse: Scheduled,
     pub eikonal: Scheduled,
     pub mask: Scheduled,
+    /// Curvature loss weight: mean `|Δf|` over samples, the Laplacian taken from the six
+    /// finite-difference taps and the centre (`Σ_k f(x ± ε e_k) − 6 f(x)) / ε²`), Neuralangelo
+    /// §3.2 (`projects/neuralangelo/utils/losses.py`, `curvature_loss`). 0 (off) by default.
+    pub curvature: Scheduled,
+    /// How the mask BCE keeps `log` finite (issue 13).
+    pub mask_bce: MaskBce,
+    /// NeuS-style colour loss (`exp_runner.py`): the colour error only inside the mask,
+    /// normalised by `3·Σ mask`, and no background colour composited. `false`: instant-nsr-pl
+    /// style, every ray's target composited on `render.background` where the mask is 0.
+    pub color_in_mask: bool,
+}
+
+/// How the mask BCE of the opacity `o ∈ [0, 1]` keeps its logarithms finite.
+///
+/// NeuS (`exp_runner.py`) and instant-nsr-pl (`systems/neus.py`) clip `o` to `[1e-3, 1 − 1e-3]`
+/// before `binary_cross_entropy`; the clip passes no gradient outside that range, so a surface
+/// that became fully opaque where the mask says background (the membrane across a hole) gets no
+/// gradient from the mask at all, and the colour network paints it with the background. Measured
+/// on the `torus` (issue 13): clip 5.49 mm, squash 0.73 mm at seed 0 (fast preset).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MaskBce {
+    /// `o' = clamp(o, 1e-3, 1 − 1e-3)`: the references' form, no gradient when saturated.
+    Clamp,
+    /// `o' = 1e-3 + (1 − 2·1e-3)·o`: an affine squash into the same range, differentiable
+    /// everywhere, gradient up to ~1000× the weight at saturation (the default).
+    Squash,
 }
 
 impl Default for LossConfig {
@@ -113,6 +140,9 @@ impl Default for LossConfig {
             rgb_mse: Scheduled::Constant(0.0),
             eikonal: Scheduled::Constant(0.1),
             mask: Scheduled::Constant(0.1),
+            curvature: Scheduled::Constant(0.0),
+            mask_bce: MaskBce::Squash,
+            color_in_mask: false,
         }
     }
 }
@@ -124,6 +154,7 @@ pub struct LossWeights {
     pub rgb_mse: f32,
     pub eikonal: f32,
     pub mask: f32,
+    pub curvature: f32,
 }
 
 impl LossConfig {
@@ -134,6 +165,7 @@ impl LossConfig {
             rgb_mse: self.rgb_mse.at(step) as f32,
             eikonal: self.eikonal.at(step) as f32,
             mask: self.mask.at(step) as f32,
+            curvature: self.curvature.at(step) as f32,
         }
     }
 }
@@ -273,8 +305,10 @@ pub struct StepOutput {
     pub rgb_mse: f64,
     /// Mean `(|∇f| − 1)²` over all samples.
     pub eikonal: f64,
-    /// Mean BCE of the clamped opacity against the mask (0 without mask).
+    /// Mean BCE of the clamped or squashed opacity against the mask (0 without mask).
     pub mask: f64,
+    /// Mean `|Δf|` over all samples (normalised units⁻¹; computed only when its weight is > 0).
+    pub curvature: f64,
     /// Weighted total.
     pub total: f64,
     /// Mean squared colour error over **all** rays (for PSNR, as instant-nsr-pl's validation).
@@ -424,6 +458,7 @@ struct Sums {
     sq_all: f64,
     eik: f64,
     mask: f64,
+    curv: f64,
     d_inv_s: f64,
 }
 
@@ -434,6 +469,8 @@ struct StepCtx<'a> {
     sched: Schedule,
     inv_s: f64,
     n_valid: usize,
+    /// Σ mask over the batch (NeuS colour normaliser).
+    mask_sum: f64,
 }
 
 impl NeusModel {
@@ -698,6 +735,9 @@ impl NeusModel {
         let samples = self.sample(batch, occ, jitter);
         let sample_time = t0.elapsed().as_secs_f64();
         let n_valid = (0..n).filter(|&r| !samples.range(r).is_empty()).count();
+        let mask_sum: f64 = targets
+            .mask
+            .map_or(0.0, |m| m.iter().map(|&v| v as f64).sum());
         let pg = split(&self.layout, params);
         let (inv_s, d_inv_s_dv) = inv_s_from_variance(pg.var[0]);
         let ctx = StepCtx {
@@ -707,6 +747,7 @@ impl NeusModel {
             sched,
             inv_s: inv_s.to_f64(),
             n_valid,
+            mask_sum,
         };
         let bounds = self.chunks(&samples);
         let n_chunks = bounds.len() - 1;
@@ -765,6 +806,7 @@ impl NeusModel {
             sums.sq_all += s.sq_all;
             sums.eik += s.eik;
             sums.mask += s.mask;
+            sums.curv += s.curv;
             sums.d_inv_s += s.d_inv_s;
             times.add(t);
         }
@@ -807,10 +849,17 @@ impl NeusModel {
         let l = sched.loss;
         let nv = n_valid.max(1) as f64;
         let ns = samples.n_samples().max(1) as f64;
+        // NeuS-style colour loss: normalised by the mask sum instead of the valid rays.
+        let cn = if self.config.loss.color_in_mask && targets.mask.is_some() {
+            mask_sum.max(1e-5)
+        } else {
+            nv
+        };
         let out = StepOutput {
-            rgb_l1: sums.l1 / (3.0 * nv),
-            rgb_mse: sums.sq_valid / (3.0 * nv),
+            rgb_l1: sums.l1 / (3.0 * cn),
+            rgb_mse: sums.sq_valid / (3.0 * cn),
             eikonal: sums.eik / ns,
+            curvature: sums.curv / ns,
             mask: if targets.mask.is_some() {
                 sums.mask / n.max(1) as f64
             } else {
@@ -828,7 +877,8 @@ impl NeusModel {
             total: l.rgb_l1 as f64 * out.rgb_l1
                 + l.rgb_mse as f64 * out.rgb_mse
                 + l.eikonal as f64 * out.eikonal
-                + l.mask as f64 * out.mask,
+                + l.mask as f64 * out.mask
+                + l.curvature as f64 * out.curvature,
             ..out
         })
     }
@@ -854,6 +904,7 @@ impl NeusModel {
             sched,
             inv_s: inv_s_from_variance(pg.var[0]).0 as f64,
             n_valid: 0,
+            mask_sum: 0.0,
         };
         let bounds = self.chunks(&samples);
         let parts: Vec<Vec<RayResult>> = (0..bounds.len() - 1)
@@ -1127,6 +1178,13 @@ impl NeusModel {
         let ns = samples.n_samples().max(1) as f64;
         sc.d_alpha.resize(n, T::ZERO);
         sc.d_rgb.resize(n, [T::ZERO; 3]);
+        let in_mask = self.config.loss.color_in_mask && targets.mask.is_some();
+        let bgt = if in_mask { [T::ZERO; 3] } else { bg };
+        let cnorm = if in_mask {
+            3.0 * ctx.mask_sum.max(1e-5)
+        } else {
+            3.0 * nv
+        };
         for r in r0..r1 {
             let rg = samples.range(r);
             let (a, b) = (rg.start - s0, rg.end - s0);
@@ -1135,17 +1193,21 @@ impl NeusModel {
                 &sc.rgb[a..b],
                 &sc.t[a..b],
                 &sc.normal[a..b],
-                bg,
+                bgt,
             );
             let tgt = targets.rgb[r];
+            let mw = match targets.mask {
+                Some(m) if in_mask => m[r] as f64,
+                _ => 1.0,
+            };
             let valid = b > a;
             let mut g_rgb = [T::ZERO; 3];
             for k in 0..3 {
                 let diff = c.rgb[k].to_f64() - tgt[k] as f64;
                 sums.sq_all += diff * diff;
                 if valid {
-                    sums.l1 += diff.abs();
-                    sums.sq_valid += diff * diff;
+                    sums.l1 += mw * diff.abs();
+                    sums.sq_valid += mw * diff * diff;
                     let sign = if diff > 0.0 {
                         1.0
                     } else if diff < 0.0 {
@@ -1154,7 +1216,7 @@ impl NeusModel {
                         0.0
                     };
                     g_rgb[k] = T::from_f64(
-                        (l.rgb_l1 as f64 * sign + l.rgb_mse as f64 * 2.0 * diff) / (3.0 * nv),
+                        mw * (l.rgb_l1 as f64 * sign + l.rgb_mse as f64 * 2.0 * diff) / cnorm,
                     );
                 }
             }
@@ -1162,17 +1224,27 @@ impl NeusModel {
             if let Some(mask) = targets.mask {
                 let m = mask[r] as f64;
                 let o = c.opacity.to_f64();
-                let oc = o.clamp(1e-3, 1.0 - 1e-3);
+                const E: f64 = 1e-3;
+                // `oc` and `d oc / d o` (MaskBce docs).
+                let (oc, doc) = match self.config.loss.mask_bce {
+                    MaskBce::Clamp => (
+                        o.clamp(E, 1.0 - E),
+                        if (E..=1.0 - E).contains(&o) { 1.0 } else { 0.0 },
+                    ),
+                    MaskBce::Squash => (E + (1.0 - 2.0 * E) * o, 1.0 - 2.0 * E),
+                };
                 sums.mask += -(m * oc.ln() + (1.0 - m) * (1.0 - oc).ln());
-                if (1e-3..=1.0 - 1e-3).contains(&o) {
-                    g_op = T::from_f64(l.mask as f64 * (-m / oc + (1.0 - m) / (1.0 - oc)) / n_rays);
+                if doc != 0.0 {
+                    g_op = T::from_f64(
+                        l.mask as f64 * doc * (-m / oc + (1.0 - m) / (1.0 - oc)) / n_rays,
+                    );
                 }
             }
             composite_backward(
                 &sc.alpha[a..b],
                 &sc.rgb[a..b],
                 &sc.t[a..b],
-                bg,
+                bgt,
                 g_rgb,
                 g_op,
                 T::ZERO,
@@ -1216,6 +1288,8 @@ impl NeusModel {
         sc.d_out.resize(n * fdim, T::ZERO);
         sc.d_tap.resize(6 * n, T::ZERO);
         let c_eik = T::from_f64(l.eikonal as f64 / ns);
+        let inv_eps2 = T::ONE / (eps * eps);
+        let c_curv = T::from_f64(l.curvature as f64 / ns) * inv_eps2;
         let mut d_inv_s = 0.0f64;
         let mut i = 0;
         for r in r0..r1 {
@@ -1265,6 +1339,25 @@ impl NeusModel {
                     let v = dg[k] * inv_2eps;
                     sc.d_tap[6 * i + 2 * k] = v;
                     sc.d_tap[6 * i + 2 * k + 1] = -v;
+                }
+                if l.curvature > 0.0 {
+                    // Δf ≈ (Σ taps − 6 f(x)) / ε²; loss mean |Δf| (LossConfig::curvature).
+                    let tp = &sc.tap[6 * i..6 * i + 6];
+                    let lap = (tp.iter().fold(T::ZERO, |a, &v| a + v)
+                        - T::from_f64(6.0) * sc.out[i * fdim])
+                        * inv_eps2;
+                    sums.curv += lap.to_f64().abs();
+                    let sgn = if lap > T::ZERO {
+                        c_curv
+                    } else if lap < T::ZERO {
+                        -c_curv
+                    } else {
+                        T::ZERO
+                    };
+                    for v in &mut sc.d_tap[6 * i..6 * i + 6] {
+                        *v += sgn;
+                    }
+                    dout[0] -= T::from_f64(6.0) * sgn;
                 }
                 let e = len - T::ONE;
                 sums.eik += (e * e).to_f64();

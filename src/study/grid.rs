@@ -519,7 +519,7 @@ mod tests {
             expand(&o, &base)
         };
         let t2 = count(Grid::Table2, 3);
-        assert_eq!(t2.len(), 6 * 3 * 3);
+        assert_eq!(t2.len(), sim::CATALOG.len() * 3 * 3);
         assert_eq!(t2[0].id, "blob-baseline-s0");
         assert_eq!(t2[1].id, "blob-dia-s0");
         assert_eq!(t2[2].id, "blob-sia-s0");
@@ -595,7 +595,10 @@ mod tests {
             parse_scenes("default, torus", Path::new("/x")).unwrap(),
             ["blob", "torus"]
         );
-        assert_eq!(parse_scenes("all", Path::new("/x")).unwrap().len(), 6);
+        assert_eq!(
+            parse_scenes("all", Path::new("/x")).unwrap().len(),
+            sim::CATALOG.len()
+        );
         assert!(parse_scenes("blob,blob", Path::new("/x")).is_err());
     }
 }

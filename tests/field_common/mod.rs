@@ -58,6 +58,7 @@ pub fn tiny_config() -> ModelConfig {
             rgb_mse: 0.5.into(),
             eikonal: 0.1.into(),
             mask: 0.1.into(),
+            ..Default::default()
         },
     }
 }

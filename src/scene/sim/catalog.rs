@@ -1,4 +1,4 @@
-//! The built-in scenes: six objects that span what makes DTU hard, each with a distinct scan
+//! The built-in scenes: nine objects that span what makes DTU hard, each with a distinct scan
 //! number (101–106) for its ground-truth file names.
 //!
 //! | name     | scan | what it tests                                                     |
@@ -9,6 +9,12 @@
 //! | `blocks` | 104  | planar faces, sharp edges, highlights, shadows on a ground plane   |
 //! | `cup`    | 105  | a deep concavity (122 mm deep, 55 mm inner radius)                 |
 //! | `relief` | 106  | fine relief (0.6–2.2 mm ripples, domes, grooves) under raking light |
+//! | `double-torus` | 107 | genus 2: two holes the cameras see through                |
+//! | `plate`  | 108  | a thin sheet: a bent plate 3 mm thick (~2 % of its size)           |
+//! | `rods`   | 109  | thin rods: a cube frame of 4 mm rods (genus 5, ~3 % of the size)   |
+//!
+//! The last three form the hard suite with `torus` and `thin`: holes that must open, parts thinner
+//! than a few training pixels.
 //!
 //! Every scene is textured (the multiscale procedural albedo) and Lambert-shaded. The default
 //! (`blob`) is built to be reconstructable by a CPU NeuS in minutes: smooth, genus 0, richly
@@ -36,7 +42,7 @@ pub struct CatalogEntry {
 }
 
 /// The catalog, in scan order.
-pub const CATALOG: [CatalogEntry; 6] = [
+pub const CATALOG: [CatalogEntry; 9] = [
     CatalogEntry {
         name: "blob",
         scan: 101,
@@ -68,6 +74,21 @@ pub const CATALOG: [CatalogEntry; 6] = [
         scan: 106,
         summary:
             "leaning plaque with 0.6-2.2 mm relief (ripples, domes, grooves) under raking light",
+    },
+    CatalogEntry {
+        name: "double-torus",
+        scan: 107,
+        summary: "two fused tori (genus 2) leaning so the cameras see through both holes",
+    },
+    CatalogEntry {
+        name: "plate",
+        scan: 108,
+        summary: "a bent plate 3 mm thick (a thin sheet, ~2% of its size), tilted 40 degrees",
+    },
+    CatalogEntry {
+        name: "rods",
+        scan: 109,
+        summary: "cube frame of twelve 4 mm rods (genus 5, ~3% of the size)",
     },
 ];
 
@@ -153,6 +174,22 @@ pub fn builtin(name: &str) -> Result<SceneDescription, SimError> {
             e.shading = lambert([-0.9, -0.35, 0.3], 0.3, 0.8);
             e.shadows = Some(Shadows::default());
             e.texture = textured(12.0);
+        }
+        "double-torus" => {
+            d.object.shape = Some(Shape::DoubleTorus);
+            e.shading = lambert(front_light, 0.3, 0.75);
+            e.shadows = Some(Shadows::default());
+            e.texture = textured(14.0);
+        }
+        "plate" => {
+            d.object.shape = Some(Shape::Plate);
+            e.shading = lambert(front_light, 0.35, 0.7);
+            e.texture = textured(12.0);
+        }
+        "rods" => {
+            d.object.shape = Some(Shape::Rods);
+            e.shading = lambert(front_light, 0.35, 0.7);
+            e.texture = textured(10.0);
         }
         _ => unreachable!("every catalog entry has a description"),
     }

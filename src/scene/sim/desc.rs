@@ -91,17 +91,27 @@ pub enum Shape {
     Cup,
     /// A leaning plaque whose face carries fine relief (ripples, domes, grooves).
     Relief,
+    /// Genus 2: two fused tori (a figure of eight), leaning so the cameras see through both holes.
+    #[serde(rename = "double-torus")]
+    DoubleTorus,
+    /// A thin sheet: a bent plate 3 mm thick (about 2 % of its size).
+    Plate,
+    /// Thin rods: a cube frame of 4 mm rods (genus 5).
+    Rods,
 }
 
 impl Shape {
     /// All shapes, in catalog order.
-    pub const ALL: [Shape; 6] = [
+    pub const ALL: [Shape; 9] = [
         Shape::Blob,
         Shape::Torus,
         Shape::Thin,
         Shape::Blocks,
         Shape::Cup,
         Shape::Relief,
+        Shape::DoubleTorus,
+        Shape::Plate,
+        Shape::Rods,
     ];
 
     /// The lowercase name used in TOML.
@@ -113,6 +123,9 @@ impl Shape {
             Shape::Blocks => "blocks",
             Shape::Cup => "cup",
             Shape::Relief => "relief",
+            Shape::DoubleTorus => "double-torus",
+            Shape::Plate => "plate",
+            Shape::Rods => "rods",
         }
     }
 }

@@ -559,6 +559,120 @@ fn relief() -> Mesh {
     m.outward().map(|p| rot_x(p, 50.0))
 }
 
+/// The zero level set of `f` (negative inside, mm) over the box `[lo, hi]` by marching cubes
+/// (`crate::mesh`) with cells of about `cell` mm. Grid values closer to 0 than 5 % of a cell are
+/// pushed to ±5 % (sign kept), so no mesh vertex lands within 5 % of a cell of a grid point and no
+/// triangle degenerates; the surface moves by at most that much, and the mesh *is* the ground
+/// truth, so nothing downstream sees the difference. The box must enclose the surface.
+fn implicit(f: impl Fn(V3) -> f64 + Sync, lo: V3, hi: V3, cell: f64) -> Mesh {
+    use crate::mesh::{marching_cubes_values, GridSpec};
+    use rayon::prelude::*;
+    let res: [usize; 3] = std::array::from_fn(|a| ((hi[a] - lo[a]) / cell).ceil() as usize + 1);
+    let h: [f64; 3] = std::array::from_fn(|a| (hi[a] - lo[a]) / (res[a] - 1) as f64);
+    let eps = 0.05 * cell;
+    let values: Vec<f32> = (0..res[0] * res[1] * res[2])
+        .into_par_iter()
+        .map(|n| {
+            let (i, j, k) = (n % res[0], (n / res[0]) % res[1], n / (res[0] * res[1]));
+            let p = [
+                lo[0] + i as f64 * h[0],
+                lo[1] + j as f64 * h[1],
+                lo[2] + k as f64 * h[2],
+            ];
+            let v = f(p);
+            (if v.abs() < eps { eps.copysign(v) } else { v }) as f32
+        })
+        .collect();
+    let grid = GridSpec {
+        min: lo.map(|x| x as f32),
+        max: hi.map(|x| x as f32),
+        res,
+    };
+    let m = marching_cubes_values(&values, &grid, 0.0).expect("finite grid on a valid box");
+    // Vertices in f64 from the grid (f32 positions are exact to ~1e-5 mm here).
+    Mesh {
+        vertices: m.vertices.iter().map(|v| v.map(|x| x as f64)).collect(),
+        faces: m.faces,
+    }
+    .outward()
+}
+
+/// Exact SDF of a torus in the `xy` plane around `c`: ring radius `big`, tube radius `small`.
+fn torus_sdf(p: V3, c: V3, big: f64, small: f64) -> f64 {
+    let q = sub(p, c);
+    let ring = (q[0] * q[0] + q[1] * q[1]).sqrt() - big;
+    (ring * ring + q[2] * q[2]).sqrt() - small
+}
+
+/// Polynomial smooth minimum (blend width `k` mm), as in Quílez's "smooth minimum" article.
+fn smin(a: f64, b: f64, k: f64) -> f64 {
+    let h = (0.5 + 0.5 * (b - a) / k).clamp(0.0, 1.0);
+    b + (a - b) * h - k * h * (1.0 - h)
+}
+
+/// Exact SDF of the capsule (segment `a`–`b`, radius `r`).
+fn capsule_sdf(p: V3, a: V3, b: V3, r: f64) -> f64 {
+    let (pa, ba) = (sub(p, a), sub(b, a));
+    let t = (dot(pa, ba) / dot(ba, ba)).clamp(0.0, 1.0);
+    norm(sub(pa, scale(ba, t))) - r
+}
+
+/// Genus 2: two tori (ring 45, tube 15 mm) fused side by side into a figure of eight, leaning
+/// 55° like [`torus`] so the cameras see through both holes (each 60 mm across).
+fn double_torus() -> Mesh {
+    let f = |p: V3| {
+        let q = rot_x(p, -55.0);
+        smin(
+            torus_sdf(q, [-47.0, 0.0, 0.0], 45.0, 15.0),
+            torus_sdf(q, [47.0, 0.0, 0.0], 45.0, 15.0),
+            6.0,
+        )
+    };
+    implicit(f, [-110.0, -65.0, -65.0], [110.0, 65.0, 65.0], 1.1)
+}
+
+/// A thin sheet: a 160 × 110 mm plate 3 mm thick (rounded rims), bent into a shallow wave
+/// (amplitude 10 mm) and tilted 40° so the cameras see its upper face and its rim.
+fn plate() -> Mesh {
+    let (hx, hy, ht) = (80.0, 55.0, 1.5);
+    let f = |p: V3| {
+        let q = rot_x(p, -40.0);
+        // Distance to the bent mid-surface, measured vertically (close to exact: slope ≤ 0.4).
+        let z = q[2] - 10.0 * (q[0] / 35.0).sin();
+        let d = [(q[0].abs() - hx).max(0.0), (q[1].abs() - hy).max(0.0)];
+        let inside = (q[0].abs() - hx).max(q[1].abs() - hy).min(0.0);
+        (d[0] * d[0] + d[1] * d[1] + z * z).sqrt() + inside - ht
+    };
+    implicit(f, [-90.0, -70.0, -70.0], [90.0, 70.0, 70.0], 0.95)
+}
+
+/// Thin rods: the twelve edges of a 130 mm cube frame, rods 4 mm across (3 % of the size),
+/// turned so no edge is axis-aligned to the cameras. Genus 5 (`E − V + 1` of the cube graph).
+fn rods() -> Mesh {
+    let h = 65.0;
+    let corners: Vec<V3> = (0..8)
+        .map(|i| {
+            let c = [
+                if i & 1 == 0 { -h } else { h },
+                if i & 2 == 0 { -h } else { h },
+                if i & 4 == 0 { -h } else { h },
+            ];
+            rot_x(rot_z(c, 30.0), 25.0)
+        })
+        .collect();
+    let edges: Vec<(usize, usize)> = (0..8)
+        .flat_map(|i| [1, 2, 4].map(move |b| (i, i ^ b)))
+        .filter(|(i, j)| i < j)
+        .collect();
+    let f = |p: V3| {
+        edges
+            .iter()
+            .map(|&(i, j)| capsule_sdf(p, corners[i], corners[j], 2.0))
+            .fold(f64::INFINITY, f64::min)
+    };
+    implicit(f, [-120.0; 3], [120.0; 3], 0.7)
+}
+
 /// The procedural mesh of a built-in shape, before centring and scaling.
 pub fn procedural(shape: Shape) -> Mesh {
     match shape {
@@ -568,6 +682,9 @@ pub fn procedural(shape: Shape) -> Mesh {
         Shape::Blocks => blocks(),
         Shape::Cup => cup(),
         Shape::Relief => relief(),
+        Shape::DoubleTorus => double_torus(),
+        Shape::Plate => plate(),
+        Shape::Rods => rods(),
     }
 }
 
@@ -714,6 +831,9 @@ mod tests {
         assert_eq!(genus(&procedural(Shape::Torus)), 1);
         assert_eq!(genus(&procedural(Shape::Cup)), 0);
         assert_eq!(genus(&procedural(Shape::Relief)), 0);
+        assert_eq!(genus(&procedural(Shape::DoubleTorus)), 2);
+        assert_eq!(genus(&procedural(Shape::Plate)), 0);
+        assert_eq!(genus(&procedural(Shape::Rods)), 5);
     }
 
     #[test]
