@@ -2,7 +2,10 @@
 //! 2-core machine, up to twice that on a loaded one).
 //!
 //! Prints (all inputs built outside the timed regions):
-//! 1. the machine's f32 FMA peak (AVX-512 FMA chains on every rayon thread, best of 3);
+//! 0. the machine: CPU model, the ISA features this build uses (compile time) and those the CPU
+//!    has (run time), and a STREAM-like triad bandwidth (`a = b + s·c`, 3 × 128 MB, all threads);
+//! 1. the machine's f32 FMA peak (the widest FMA chains the build has: AVX-512, AVX2+FMA or
+//!    portable `mul_add`, on every rayon thread, best of 3);
 //! 2. the MLP products: register kernels against `matrixmultiply` and the naive triple loop
 //!    (the peers measured in the same run), and the SDF hidden layer's parts;
 //! 3. SDF queries: the occupancy grid's warm-up update (all 128³ cells);
@@ -97,7 +100,101 @@ fn rate(count: f64, wall: f64, cpu: f64) -> String {
     )
 }
 
-/// FLOPs of independent AVX-512 FMA chains on one thread (16 accumulators hide the latency).
+/// The FMA chains [`fma_thread`] runs in this build.
+fn fma_isa() -> &'static str {
+    if cfg!(all(target_arch = "x86_64", target_feature = "avx512f")) {
+        "AVX-512 FMA chains"
+    } else if cfg!(all(
+        target_arch = "x86_64",
+        target_feature = "avx2",
+        target_feature = "fma"
+    )) {
+        "AVX2 FMA chains (8-wide mul_add)"
+    } else if cfg!(target_arch = "aarch64") {
+        "NEON FMA chains (mul_add)"
+    } else {
+        "portable mul_add chains (no FMA in this build)"
+    }
+}
+
+/// Prints the machine: CPU model, build and CPU ISA features.
+fn machine() {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown (no /proc/cpuinfo)".into());
+    let build: Vec<&str> = [
+        ("avx512f", cfg!(target_feature = "avx512f")),
+        ("avx2", cfg!(target_feature = "avx2")),
+        ("fma", cfg!(target_feature = "fma")),
+        ("sse4.2", cfg!(target_feature = "sse4.2")),
+        ("neon", cfg!(target_feature = "neon")),
+    ]
+    .into_iter()
+    .filter(|f| f.1)
+    .map(|f| f.0)
+    .collect();
+    #[allow(unused_mut)]
+    let mut cpu: Vec<&str> = Vec::new();
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            cpu.push("avx512f");
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            cpu.push("avx2");
+        }
+        if std::arch::is_x86_feature_detected!("fma") {
+            cpu.push("fma");
+        }
+    }
+    println!(
+        "== machine: {model}; {} threads; build uses [{}]; CPU has [{}] ==",
+        rayon::current_num_threads(),
+        build.join(", "),
+        cpu.join(", ")
+    );
+}
+
+/// STREAM-like triad `a[i] = b[i] + s·c[i]` over 32 Mi f32 per array (3 × 128 MB, far beyond
+/// any cache), in parallel over the rayon threads; best of 5. Bytes counted as STREAM does:
+/// 12 per element (two reads, one write; the write-allocate read is not counted). Bytes/s.
+fn triad_bandwidth() -> f64 {
+    const N: usize = 32 << 20;
+    let b = vec![1.0f32; N];
+    let c = vec![2.0f32; N];
+    let mut a = vec![0.0f32; N];
+    let mut best = 0.0f64;
+    for rep in 0..6 {
+        let t = Instant::now();
+        a.par_chunks_mut(1 << 16)
+            .zip(b.par_chunks(1 << 16))
+            .zip(c.par_chunks(1 << 16))
+            .for_each(|((a, b), c)| {
+                for ((x, y), z) in a.iter_mut().zip(b).zip(c) {
+                    *x = y + 3.0 * z;
+                }
+            });
+        let w = t.elapsed().as_secs_f64();
+        black_box(&a);
+        if rep > 0 {
+            best = best.max(12.0 * N as f64 / w);
+        }
+    }
+    println!(
+        "== memory bandwidth (STREAM-like triad, 3 x 128 MB, best of 5): {:.1} GB/s ==",
+        best / 1e9
+    );
+    best
+}
+
+/// FLOPs of independent FMA chains on one thread (16 accumulators hide the latency; the width
+/// is the build's: [`fma_isa`]).
 fn fma_thread(iters: u64) -> f64 {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
     unsafe {
@@ -150,7 +247,8 @@ fn fma_peak() -> f64 {
         best.1 = best.1.max(flops / cpu * threads as f64);
     }
     println!(
-        "== f32 FMA peak ({threads} threads, AVX-512 FMA chains, best of 3): {:.1} GFLOP/s wall, {:.1} GFLOP/s CPU-time normalised ==",
+        "== f32 FMA peak ({threads} threads, {}, best of 3): {:.1} GFLOP/s wall, {:.1} GFLOP/s CPU-time normalised ==",
+        fma_isa(),
         best.0 / 1e9,
         best.1 / 1e9
     );
@@ -852,7 +950,9 @@ fn main() {
         "neus-aug field bench: {threads} rayon threads, load average {} at start",
         loadavg()
     );
+    machine();
     let peak = fma_peak();
+    let bandwidth = triad_bandwidth();
     if !quick {
         gemm_compare(peak);
         sdf_layer_parts();
@@ -889,14 +989,15 @@ fn main() {
     let (lines, new) = hash_lines(&model, &pts[..pts.len().min(20000)]);
     let g = &model.grid;
     println!(
-        "  hash table {:.1} MB ({} levels, {} dense) + its gradient buffer(s), L3 32 MB: per sample the 7 points touch {:.0} distinct 64-B lines, {:.0} not touched by the previous sample; at the train_step rate that is ~{:.1} GB/s of table reads + {:.1} GB/s of gradient read-modify-write beyond L1",
+        "  hash table {:.1} MB ({} levels, {} dense) + its gradient buffer(s), L3 32 MB: per sample the 7 points touch {:.0} distinct 64-B lines, {:.0} not touched by the previous sample; at the train_step rate that is ~{:.1} GB/s of table reads + {:.1} GB/s of gradient read-modify-write beyond L1 ({:.0}% of the triad bandwidth)",
         (g.n_params() * 4) as f64 / 1e6,
         g.levels.len(),
         g.levels.iter().filter(|l| !l.hashed).count(),
         lines,
         new,
         sps * new * 64.0 / 1e9,
-        sps * new * 128.0 / 1e9
+        sps * new * 128.0 / 1e9,
+        100.0 * sps * new * 192.0 / bandwidth
     );
     if let Some(l) = std::fs::read_to_string("/proc/self/smaps_rollup")
         .ok()
