@@ -13,7 +13,10 @@ fn pyenv_lock_serialises_parallel_installs() {
         return;
     }
     let out = Command::new("python3")
-        .arg(concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/test_pyenv.py"))
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/scripts/test_pyenv.py"
+        ))
         .output()
         .expect("spawn python3");
     let text = format!(

@@ -125,7 +125,10 @@ mod tests {
     fn refuses_fifo_symlink_and_folder() {
         let dir = tempfile::tempdir().unwrap();
         let fifo = dir.path().join("fifo");
-        let made = std::process::Command::new("mkfifo").arg(&fifo).status().unwrap();
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
         assert!(made.success());
         let target = dir.path().join("target.txt");
         std::fs::write(&target, b"keep").unwrap();
@@ -133,17 +136,29 @@ mod tests {
         std::os::unix::fs::symlink(&target, &link).unwrap();
         let folder = dir.path().join("folder");
         std::fs::create_dir(&folder).unwrap();
-        for (p, what) in [(&fifo, "FIFO"), (&link, "symbolic link"), (&folder, "folder")] {
+        for (p, what) in [
+            (&fifo, "FIFO"),
+            (&link, "symbolic link"),
+            (&folder, "folder"),
+        ] {
             let e = write_atomic(p, b"x").unwrap_err().to_string();
             assert!(e.contains(what) && e.contains("refusing"), "{e}");
         }
         use std::os::unix::fs::FileTypeExt;
-        assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
-        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert!(std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo());
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
         assert_eq!(std::fs::read(&target).unwrap(), b"keep");
         // Only the four entries made above: no temporary left.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 4);
-        let e = write_atomic(Path::new("/dev/null"), b"x").unwrap_err().to_string();
+        let e = write_atomic(Path::new("/dev/null"), b"x")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("device"), "{e}");
     }
 }

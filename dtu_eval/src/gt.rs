@@ -205,15 +205,16 @@ fn find<'a>(
     path: &Path,
     name: &str,
 ) -> Result<&'a matfile::Array, GtError> {
-    mat.find_by_name(name).ok_or_else(|| match truncation(path) {
-        // matfile stops quietly at a cut-off element, so a truncated file looks like one whose
-        // variables are missing; say what is really wrong.
-        Some(why) => GtError::Parse {
-            path: path.into(),
-            message: format!("the file is truncated ({why}); copy it again"),
-        },
-        None => var_err(path, name, "is missing".into()),
-    })
+    mat.find_by_name(name)
+        .ok_or_else(|| match truncation(path) {
+            // matfile stops quietly at a cut-off element, so a truncated file looks like one whose
+            // variables are missing; say what is really wrong.
+            Some(why) => GtError::Parse {
+                path: path.into(),
+                message: format!("the file is truncated ({why}); copy it again"),
+            },
+            None => var_err(path, name, "is missing".into()),
+        })
 }
 
 /// Why a MATLAB v5 file is cut short, if it is: walks the top-level data elements (8-byte tag:
@@ -223,7 +224,10 @@ fn find<'a>(
 fn truncation(path: &Path) -> Option<String> {
     let bytes = std::fs::read(path).ok()?;
     if bytes.len() < 128 {
-        return Some(format!("{} bytes, less than the 128-byte header", bytes.len()));
+        return Some(format!(
+            "{} bytes, less than the 128-byte header",
+            bytes.len()
+        ));
     }
     let big = &bytes[126..128] == b"MI";
     let word = |at: usize| -> u32 {

@@ -15,7 +15,7 @@ use ply_rs_bw::ply::{
 };
 use ply_rs_bw::writer::Writer;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 /// Errors of PLY input/output. Every variant names the file.
@@ -317,7 +317,6 @@ pub fn write_points(
 ) -> Result<(), PlyError> {
     write(path, points, colors, &[], &[])
 }
-
 
 #[cfg(test)]
 mod tests {
