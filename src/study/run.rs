@@ -81,10 +81,8 @@ fn reuse_checkpoint(dir: &Path, src: &str, dst: &str) -> Result<bool, StudyError
         return Ok(false);
     }
     std::fs::create_dir_all(&d).map_err(io_err(&d))?;
-    let tmp = d.join("checkpoint.safetensors.copy");
-    std::fs::copy(&from, &tmp)
-        .and_then(|_| std::fs::rename(&tmp, &to))
-        .map_err(io_err(&to))?;
+    let bytes = std::fs::read(&from).map_err(io_err(&from))?;
+    dtu_eval::atomic::write_atomic(&to, &bytes).map_err(io_err(&to))?;
     Ok(true)
 }
 
