@@ -893,6 +893,68 @@ mod tests {
     }
 
     #[test]
+    fn resume_keeps_the_saved_configuration_and_names_every_difference() {
+        let dir = tempfile::tempdir().unwrap();
+        let saved = dir.path().join("config.toml");
+        let sets = vec![
+            parse_set("seed=7").unwrap(),
+            parse_set("scene=torus").unwrap(),
+            parse_set("train.iterations=33").unwrap(),
+        ];
+        let c = resolve(Some(Preset::Fast), None, &sets).unwrap();
+        std::fs::write(&saved, c.to_toml()).unwrap();
+        // No options: the saved configuration, whatever the default preset says.
+        assert_eq!(resolve_resume(&saved, None, None, &[]).unwrap(), c);
+        // Agreeing options (and another spelling of the output folder) are accepted.
+        let same = vec![
+            parse_set("seed=7").unwrap(),
+            parse_set("out=\"elsewhere\"").unwrap(),
+        ];
+        let r = resolve_resume(&saved, Some(Preset::Fast), None, &same).unwrap();
+        assert_eq!(r.out, Some(PathBuf::from("elsewhere")));
+        // Two changed values: both named, with the saved and the given value.
+        let e = resolve_resume(
+            &saved,
+            None,
+            None,
+            &[
+                parse_set("seed=8").unwrap(),
+                parse_set("mesh.fine_res=64").unwrap(),
+            ],
+        )
+        .unwrap_err()
+        .to_string();
+        for want in [
+            "seed: the run has 7, given 8",
+            "mesh.fine_res: the run has 256, given 64",
+        ] {
+            assert!(e.contains(want), "{e}");
+        }
+        let e = resolve_resume(&saved, Some(Preset::Paper), None, &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("preset: the run has fast, given paper"), "{e}");
+        // The saved file is never rewritten by resolution.
+        assert_eq!(std::fs::read_to_string(&saved).unwrap(), c.to_toml());
+    }
+
+    #[test]
+    fn nan_is_refused_in_any_float_key_by_name() {
+        for key in [
+            "mesh.pad_fraction",
+            "model.render.occupancy.ema_decay",
+            "model.render.variance_init",
+            "train.lr.warmup_start",
+            "model.field.sdf.softplus_beta",
+        ] {
+            let e = resolve(None, None, &[parse_set(&format!("{key}=nan")).unwrap()])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(key) && e.contains("NaN"), "{key}: {e}");
+        }
+    }
+
+    #[test]
     fn holdout_indices() {
         assert_eq!(Holdout::Count(3).indices(49).unwrap(), vec![8, 24, 40]);
         assert_eq!(Holdout::Count(0).indices(5).unwrap(), Vec::<usize>::new());
