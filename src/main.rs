@@ -17,7 +17,10 @@ fn main() -> ExitCode {
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            // Each cause once (see `error_chain`), not anyhow's `{:#}`, which repeats a cause
+            // that an error both shows in its message and returns as its source.
+            let err: &(dyn std::error::Error + 'static) = err.as_ref();
+            eprintln!("error: {}", dtu_eval::error::error_chain(err));
             ExitCode::FAILURE
         }
     }

@@ -92,14 +92,41 @@ impl EvalArgs {
 /// Runs the evaluation the arguments describe, writes the requested files and returns the
 /// report (the caller prints [`Report::summary`]).
 pub fn run(args: &EvalArgs) -> Result<Report, EvalError> {
+    check_outputs(args)?;
+    let usage = |m: &str| Err(EvalError::Usage(m.into()));
     match (&args.scan, &args.gt_root, &args.reference) {
         (Some(scan), Some(root), None) => run_dtu(args, *scan, root),
         (None, None, Some(reference)) => run_plain(args, reference),
-        _ => Err(EvalError::Usage(
-            "give either --scan N --gt-root DIR (DTU mode) or --ref PLY (plain mode), not both"
-                .into(),
-        )),
+        (Some(_), None, None) => usage("--scan needs --gt-root DIR (DTU's \"SampleSet/MVS Data\")"),
+        (None, Some(_), None) => usage("--gt-root needs --scan N (the DTU scan number)"),
+        (None, None, None) => usage(
+            "nothing to compare --mesh with: give --scan N --gt-root DIR (DTU mode) or --ref PLY \
+             (plain mode)",
+        ),
+        _ => usage(
+            "give either --scan N --gt-root DIR (DTU mode) or --ref PLY (plain mode), not both",
+        ),
     }
+}
+
+/// Refuses unusable output paths before any work: a `--json` target that exists and is not a
+/// regular file, and a `--vis-dir` / `--dump-dir` that exists and is not a folder.
+fn check_outputs(args: &EvalArgs) -> Result<(), EvalError> {
+    if let Some(path) = &args.json {
+        crate::atomic::check_replaceable(path).map_err(|source| EvalError::Io {
+            path: path.into(),
+            source,
+        })?;
+    }
+    for (flag, dir) in [("--vis-dir", &args.vis_dir), ("--dump-dir", &args.dump_dir)] {
+        if let Some(dir) = dir.as_ref().filter(|d| d.exists() && !d.is_dir()) {
+            return Err(EvalError::Usage(format!(
+                "{flag} {} exists and is not a folder; name a folder (it is created if missing)",
+                dir.display()
+            )));
+        }
+    }
+    Ok(())
 }
 
 fn run_dtu(args: &EvalArgs, scan: u32, root: &Path) -> Result<Report, EvalError> {
@@ -263,7 +290,8 @@ fn write_outputs_plain(
     Ok(())
 }
 
-/// Writes `report` as pretty JSON, atomically (temporary sibling + rename).
+/// Writes `report` as pretty JSON, atomically ([`crate::atomic::write_atomic`]); a target that is
+/// not a regular file is refused.
 pub fn write_json(path: &Path, report: &Report) -> Result<(), EvalError> {
     let text = serde_json::to_string_pretty(report).expect("a report always serialises");
     write_atomic(path, text.as_bytes())
@@ -277,15 +305,7 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), EvalError> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(io_err)?;
     }
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(format!(".tmp{}", std::process::id()));
-    let tmp = path.with_file_name(name);
-    std::fs::write(&tmp, bytes)
-        .and_then(|_| std::fs::rename(&tmp, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            io_err(e)
-        })
+    crate::atomic::write_atomic(path, bytes).map_err(io_err)
 }
 
 /// Writes `[n][3]` `f32` points as a `.npy` (`<f4`, shape `(n, 3)`, C order).

@@ -150,13 +150,18 @@ fn outside_box_message(
     m
 }
 
-/// `err` and its `source()` chain, joined with ": " (what anyhow's `{:#}` prints).
+/// `err` and its `source()` chain, joined with ": " (as anyhow's `{:#}` prints), each cause once:
+/// a cause whose text the message already contains (an error that shows its source in its own
+/// message and also returns it from `source()`) is not repeated.
 pub fn error_chain(err: &dyn std::error::Error) -> String {
     let mut s = err.to_string();
     let mut cur = err.source();
     while let Some(e) = cur {
-        s.push_str(": ");
-        s.push_str(&e.to_string());
+        let text = e.to_string();
+        if !s.contains(&text) {
+            s.push_str(": ");
+            s.push_str(&text);
+        }
         cur = e.source();
     }
     s

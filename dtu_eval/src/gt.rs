@@ -193,7 +193,10 @@ fn parse(path: &Path) -> Result<matfile::MatFile, GtError> {
     })?;
     matfile::MatFile::parse(std::io::BufReader::new(file)).map_err(|e| GtError::Parse {
         path: path.into(),
-        message: format!("{e:?}"),
+        message: match truncation(path) {
+            Some(why) => format!("the file is truncated ({why}); copy it again"),
+            None => format!("{e:?}"),
+        },
     })
 }
 
@@ -203,7 +206,58 @@ fn find<'a>(
     name: &str,
 ) -> Result<&'a matfile::Array, GtError> {
     mat.find_by_name(name)
-        .ok_or_else(|| var_err(path, name, "is missing".into()))
+        .ok_or_else(|| match truncation(path) {
+            // matfile stops quietly at a cut-off element, so a truncated file looks like one whose
+            // variables are missing; say what is really wrong.
+            Some(why) => GtError::Parse {
+                path: path.into(),
+                message: format!("the file is truncated ({why}); copy it again"),
+            },
+            None => var_err(path, name, "is missing".into()),
+        })
+}
+
+/// Why a MATLAB v5 file is cut short, if it is: walks the top-level data elements (8-byte tag:
+/// type and byte count, little- or big-endian per the header's `IM`/`MI` indicator; elements are
+/// padded to 8 bytes except `miCOMPRESSED`, type 15) and reports the first one whose declared
+/// size runs past the end of the file.
+fn truncation(path: &Path) -> Option<String> {
+    let bytes = std::fs::read(path).ok()?;
+    if bytes.len() < 128 {
+        return Some(format!(
+            "{} bytes, less than the 128-byte header",
+            bytes.len()
+        ));
+    }
+    let big = &bytes[126..128] == b"MI";
+    let word = |at: usize| -> u32 {
+        let b = [bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]];
+        if big {
+            u32::from_be_bytes(b)
+        } else {
+            u32::from_le_bytes(b)
+        }
+    };
+    let mut at = 128usize;
+    while at < bytes.len() {
+        if at + 8 > bytes.len() {
+            return Some(format!("a data element tag at byte {at} is cut off"));
+        }
+        let (ty, n) = (word(at), word(at + 4) as usize);
+        if ty >> 16 != 0 {
+            at += 8; // small data element: tag and data in 8 bytes
+            continue;
+        }
+        let end = at + 8 + n;
+        if end > bytes.len() {
+            return Some(format!(
+                "the data element at byte {at} declares {n} bytes, only {} remain",
+                bytes.len() - at - 8
+            ));
+        }
+        at = if ty == 15 { end } else { end.div_ceil(8) * 8 };
+    }
+    None
 }
 
 fn var_err(path: &Path, name: &str, problem: String) -> GtError {
@@ -337,15 +391,7 @@ fn write_mat(path: &Path, vars: &[MatVar]) -> Result<(), GtError> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(io_err)?;
     }
-    let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
-    tmp_name.push(format!(".tmp{}", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    std::fs::write(&tmp, &bytes)
-        .and_then(|_| std::fs::rename(&tmp, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            io_err(e)
-        })
+    crate::atomic::write_atomic(path, &bytes).map_err(io_err)
 }
 
 #[cfg(test)]
@@ -400,6 +446,29 @@ mod tests {
         assert!(err.contains("nope.mat"), "{err}");
         std::fs::write(&path, b"garbage").unwrap();
         assert!(matches!(Plane::read(&path), Err(GtError::Parse { .. })));
+    }
+
+    #[test]
+    fn a_truncated_mat_file_says_truncated_not_missing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ObsMask3_10.mat");
+        let mask = ObsMask {
+            dims: [4, 3, 2],
+            data: (0..24).map(|i| i % 3 == 0).collect(),
+            bb: [[0.0, 0.0, 0.0], [4.0, 3.0, 2.0]],
+            res: 1.0,
+        };
+        mask.write(&path).unwrap();
+        assert!(truncation(&path).is_none(), "a whole file is not truncated");
+        let bytes = std::fs::read(&path).unwrap();
+        for cut in [bytes.len() - 3, bytes.len() / 2, 150] {
+            std::fs::write(&path, &bytes[..cut]).unwrap();
+            let err = ObsMask::read(&path).unwrap_err().to_string();
+            assert!(
+                err.contains("truncated") && !err.contains("missing"),
+                "cut at {cut}: {err}"
+            );
+        }
     }
 
     #[test]

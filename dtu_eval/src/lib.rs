@@ -5,7 +5,8 @@
 //! Modules in data-flow order: [`ply`] and [`gt`] read the inputs; [`sample`] samples the mesh
 //! surface; [`downsample`] shuffles and thins it; [`nn`] answers nearest-neighbour queries on a
 //! k-d tree; [`protocol`] chains DTU's stages ([`plain`] is the mask-free variant); [`report`]
-//! holds the figures; [`vis`] writes error-coloured clouds; [`cli`] is the shared command line.
+//! holds the figures; [`vis`] writes error-coloured clouds; [`cli`] is the shared command line;
+//! [`atomic`] is the one atomic file writer of the workspace.
 //!
 //! ```no_run
 //! use dtu_eval::protocol::{evaluate_mesh, GroundTruth};
@@ -17,6 +18,7 @@
 //! # Ok::<(), dtu_eval::EvalError>(())
 //! ```
 
+pub mod atomic;
 pub mod cli;
 pub mod downsample;
 pub mod error;

@@ -14,13 +14,13 @@ struct Cli {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match dtu_eval::cli::run(&cli.args).map_err(anyhow::Error::from) {
+    match dtu_eval::cli::run(&cli.args) {
         Ok(report) => {
             print!("{}", report.summary());
             ExitCode::SUCCESS
         }
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", dtu_eval::error::error_chain(&err));
             ExitCode::FAILURE
         }
     }

@@ -15,7 +15,7 @@ use ply_rs_bw::ply::{
 };
 use ply_rs_bw::writer::Writer;
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 /// Errors of PLY input/output. Every variant names the file.
@@ -248,7 +248,7 @@ fn scalar(name: &str, t: ScalarType) -> PropertyDef {
 }
 
 /// Writes `vertices` (with optional per-vertex colours) and `faces` as a binary little-endian PLY,
-/// atomically (temporary file + rename). `comment` lines go into the header.
+/// atomically ([`crate::atomic::write_atomic_with`]). `comment` lines go into the header.
 pub fn write(
     path: &Path,
     vertices: &[[f32; 3]],
@@ -287,27 +287,21 @@ pub fn write(
         header.elements.add(fdef.clone());
     }
 
-    let tmp = tmp_path(path);
-    let result = (|| -> std::io::Result<()> {
-        let mut out = BufWriter::with_capacity(1 << 20, File::create(&tmp)?);
-        Writer::<VertexOut>::new().write_header(&mut out, &header)?;
+    crate::atomic::write_atomic_with(path, |mut out| {
+        let out = &mut out;
+        Writer::<VertexOut>::new().write_header(out, &header)?;
         let vw = Writer::<VertexOut>::new();
         for (i, xyz) in vertices.iter().enumerate() {
             let rgb = colors.map(|c| &c[i]);
-            vw.write_little_endian_element(&mut out, &VertexOut { xyz, rgb }, &vdef)?;
+            vw.write_little_endian_element(out, &VertexOut { xyz, rgb }, &vdef)?;
         }
         let fw = Writer::<FaceOut>::new();
         for f in faces {
-            fw.write_little_endian_element(&mut out, &FaceOut(f), &fdef)?;
+            fw.write_little_endian_element(out, &FaceOut(f), &fdef)?;
         }
-        out.flush()?;
-        out.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(io_err)
+        Ok(())
+    })
+    .map_err(io_err)
 }
 
 /// Writes a triangle mesh as binary little-endian PLY (see [`write`]).
@@ -322,12 +316,6 @@ pub fn write_points(
     colors: Option<&[[u8; 3]]>,
 ) -> Result<(), PlyError> {
     write(path, points, colors, &[], &[])
-}
-
-fn tmp_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(format!(".tmp{}", std::process::id()));
-    path.with_file_name(name)
 }
 
 #[cfg(test)]

@@ -86,6 +86,12 @@ pub fn write_plain(
 }
 
 pub(crate) fn create_dir(dir: &Path) -> Result<(), EvalError> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(EvalError::Usage(format!(
+            "{} exists and is not a folder; name a folder for the output files",
+            dir.display()
+        )));
+    }
     std::fs::create_dir_all(dir).map_err(|source| EvalError::Io {
         path: dir.into(),
         source,

@@ -64,6 +64,15 @@ fn apply(spec: &str, args: &AugmentArgs) -> anyhow::Result<()> {
             args.paths.len()
         );
     };
+    if !output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        bail!(
+            "--apply {spec}: output {} must be a .png file (augment writes PNG only)",
+            output.display()
+        );
+    }
     let img = RgbImage::load(input)?;
     let mut rng = Pcg64Mcg::seed_from_u64(args.seed);
     op.apply(&img, &mut rng).save(output)?;
@@ -93,7 +102,7 @@ fn sheet(args: &AugmentArgs) -> anyhow::Result<()> {
     let png = out.join("contact_sheet.png");
     sheet.image.save(&png)?;
     let txt = out.join("contact_sheet.txt");
-    std::fs::write(&txt, sheet.legend())
+    dtu_eval::atomic::write_atomic(&txt, sheet.legend().as_bytes())
         .with_context(|| format!("cannot write {}", txt.display()))?;
     println!(
         "wrote {} ({}×{}, {} cells) and {}",

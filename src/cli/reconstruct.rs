@@ -50,7 +50,9 @@ pub struct ReconstructArgs {
     /// DTU scan number for evaluation (config `eval.scan`).
     #[arg(long)]
     pub scan: Option<u32>,
-    /// Continue from the output folder's checkpoint.
+    /// Continue the run in the output folder from its checkpoint, with the configuration in its
+    /// own config.toml (`reconstruct --out DIR --resume` needs no other option; options given
+    /// must agree with it). A folder without a run starts one.
     #[arg(long)]
     pub resume: bool,
     /// Redo a finished run in the output folder.
@@ -71,6 +73,19 @@ fn toml_str(s: impl ToString) -> toml::Value {
     toml::Value::String(s.to_string())
 }
 
+/// A `u64` flag as a TOML integer (signed 64-bit): values from 2^63 up are refused by name,
+/// instead of wrapping to a negative number.
+fn toml_int(flag: &str, v: u64) -> anyhow::Result<toml::Value> {
+    match i64::try_from(v) {
+        Ok(i) => Ok(toml::Value::Integer(i)),
+        Err(_) => anyhow::bail!(
+            "{flag} {v} is too large: at most {} (2^63 - 1; the configuration is TOML, whose \
+             integers are signed 64-bit)",
+            i64::MAX
+        ),
+    }
+}
+
 pub fn run(args: ReconstructArgs) -> anyhow::Result<()> {
     let mut sets: Vec<(String, toml::Value)> = Vec::new();
     let mut put = |k: &str, v: toml::Value| sets.push((k.to_string(), v));
@@ -84,7 +99,7 @@ pub fn run(args: ReconstructArgs) -> anyhow::Result<()> {
         put("augment.mode", toml_str(a.name()));
     }
     if let Some(s) = args.seed {
-        put("seed", toml::Value::Integer(s as i64));
+        put("seed", toml_int("--seed", s)?);
     }
     if let Some(f) = args.views_fraction {
         put("data.views_fraction", toml::Value::Float(f));
@@ -93,7 +108,7 @@ pub fn run(args: ReconstructArgs) -> anyhow::Result<()> {
         put("data.degrade", toml_str(d));
     }
     if let Some(i) = args.iterations {
-        put("train.iterations", toml::Value::Integer(i as i64));
+        put("train.iterations", toml_int("--iterations", i)?);
     }
     if let Some(o) = &args.out {
         put("out", toml_str(o.display()));
@@ -107,7 +122,11 @@ pub fn run(args: ReconstructArgs) -> anyhow::Result<()> {
     for s in &args.set {
         sets.push(parse_set(s)?);
     }
-    let cfg = reconstruct::resolve(args.preset, args.config.as_deref(), &sets)?;
+    let cfg = if args.resume {
+        resume_config(&args, &sets)?
+    } else {
+        reconstruct::resolve(args.preset, args.config.as_deref(), &sets)?
+    };
     if args.print_config {
         print!("{}", cfg.to_toml());
         return Ok(());
@@ -131,4 +150,37 @@ pub fn run(args: ReconstructArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// The configuration of `--resume`: the run folder's own `config.toml` when it has one (options
+/// given are checked against it, see [`reconstruct::resolve_resume`]), else the usual resolution
+/// (a folder without a run yet: the first attempt of a study job, for example).
+fn resume_config(
+    args: &ReconstructArgs,
+    sets: &[(String, toml::Value)],
+) -> anyhow::Result<reconstruct::RunConfig> {
+    let out = match &args.out {
+        Some(o) => o.clone(),
+        None => {
+            // The default folder depends on the scene, augmentation, preset and seed given.
+            let cfg = reconstruct::resolve(args.preset, args.config.as_deref(), sets)?;
+            let scene = reconstruct::resolve_scene(&cfg.scene, &cfg.data_root, args.quiet)?;
+            reconstruct::output_dir(&cfg, &scene)
+        }
+    };
+    let saved = out.join("config.toml");
+    if saved.is_file() {
+        Ok(reconstruct::resolve_resume(
+            &saved,
+            args.preset,
+            args.config.as_deref(),
+            sets,
+        )?)
+    } else {
+        Ok(reconstruct::resolve(
+            args.preset,
+            args.config.as_deref(),
+            sets,
+        )?)
+    }
 }

@@ -54,6 +54,10 @@ pub struct SynthArgs {
     pub quiet: bool,
 }
 
+/// Most views `synth` renders (`--views` or the scene's `rig.views`): DTU has 49 or 64, and each
+/// view's image is held in memory while the scene is written.
+const MAX_VIEWS: usize = 1000;
+
 fn parse_resolution(s: &str) -> Result<[u32; 2], String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -117,6 +121,13 @@ fn describe(args: &SynthArgs) -> anyhow::Result<SceneDescription> {
     }
     desc.effects.degrade.extend(args.degrade.iter().cloned());
     desc.validate()?;
+    if desc.rig.views > MAX_VIEWS {
+        bail!(
+            "rig.views = {} is too many: at most {MAX_VIEWS} views (DTU has 49 or 64; every view \
+             is rendered and held in memory)",
+            desc.rig.views
+        );
+    }
     Ok(desc)
 }
 

@@ -31,6 +31,13 @@ pub enum ConfigError {
         value: String,
         why: String,
     },
+    /// `--resume` with options that differ from the run's own `config.toml`.
+    #[error(
+        "cannot resume the run in {dir}: {differences}. A resumed run keeps the configuration it \
+         started with (its config.toml); run `reconstruct --out {dir} --resume` with no other \
+         options, or start a new run in another --out"
+    )]
+    ResumeMismatch { dir: PathBuf, differences: String },
 }
 
 fn invalid(key: &str, value: impl std::fmt::Display, why: &str) -> ConfigError {
@@ -365,44 +372,68 @@ pub fn parse_set(spec: &str) -> Result<(String, toml::Value), ConfigError> {
     Ok((k.to_string(), value))
 }
 
+/// Reads a TOML configuration file into a tree; errors name the file.
+fn read_toml(path: &std::path::Path) -> Result<toml::Value, ConfigError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+        path: path.into(),
+        source,
+    })?;
+    let table: toml::Table = toml::from_str(&text).map_err(|e| ConfigError::Parse {
+        origin: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    Ok(toml::Value::Table(table))
+}
+
+/// The `preset` key of a configuration tree, if it has one.
+fn preset_of(tree: Option<&toml::Value>) -> Result<Option<Preset>, ConfigError> {
+    match tree.and_then(|v| v.get("preset")) {
+        Some(p) => Ok(Some(p.clone().try_into::<Preset>().map_err(|e| {
+            ConfigError::Parse {
+                origin: "config key `preset`".into(),
+                message: e.to_string(),
+            }
+        })?)),
+        None => Ok(None),
+    }
+}
+
 /// Builds the configuration: `preset` (if `None`, the file's `preset` key or `default`), then
-/// the file, then `overrides` (dotted key → value, in order).
+/// the file, then `overrides` (dotted key → value, in order). `preset` cannot be an override: it
+/// picks the defaults every other key starts from (`--preset NAME` or the file's `preset` key).
 pub fn resolve(
     preset: Option<Preset>,
     file: Option<&std::path::Path>,
     overrides: &[(String, toml::Value)],
 ) -> Result<RunConfig, ConfigError> {
-    let file_value: Option<toml::Value> = match file {
-        Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-                path: path.into(),
-                source,
-            })?;
-            let table: toml::Table = toml::from_str(&text).map_err(|e| ConfigError::Parse {
-                origin: path.display().to_string(),
-                message: e.to_string(),
-            })?;
-            Some(toml::Value::Table(table))
-        }
-        None => None,
-    };
-    let file_preset = match file_value.as_ref().and_then(|v| v.get("preset")) {
-        Some(p) => Some(
-            p.clone()
-                .try_into::<Preset>()
-                .map_err(|e| ConfigError::Parse {
-                    origin: "config key `preset`".into(),
-                    message: e.to_string(),
-                })?,
-        ),
-        None => None,
-    };
-    let preset = preset.or(file_preset).unwrap_or_default();
-    let mut tree = toml::Value::try_from(preset.config()).expect("presets serialise");
+    let file_value = file.map(read_toml).transpose()?;
+    let preset = preset
+        .or(preset_of(file_value.as_ref())?)
+        .unwrap_or_default();
+    let tree = toml::Value::try_from(preset.config()).expect("presets serialise");
+    finish(tree, preset, file, file_value, overrides)
+}
+
+/// Merges the file and the overrides into `tree`, then deserialises and validates.
+fn finish(
+    mut tree: toml::Value,
+    preset: Preset,
+    file: Option<&std::path::Path>,
+    file_value: Option<toml::Value>,
+    overrides: &[(String, toml::Value)],
+) -> Result<RunConfig, ConfigError> {
     if let Some(v) = file_value {
         merge(&mut tree, v);
     }
     for (k, v) in overrides {
+        if k == "preset" {
+            return Err(invalid(
+                "preset",
+                v,
+                "cannot be set with --set: a preset picks the defaults every other key starts \
+                 from; use --preset NAME (or `preset` in the --config file)",
+            ));
+        }
         set_dotted(&mut tree, k, v.clone())?;
     }
     set_dotted(
@@ -425,9 +456,127 @@ pub fn resolve(
     Ok(cfg)
 }
 
+/// The configuration of `reconstruct --resume`: the run's own `config.toml` (`saved`), with the
+/// options given now applied on top only to check that they agree with it. A preset, file or
+/// override that changes any value (the output folder aside) is refused with every differing key
+/// named, so `--resume` needs no options and never silently trains another configuration.
+pub fn resolve_resume(
+    saved: &std::path::Path,
+    preset: Option<Preset>,
+    file: Option<&std::path::Path>,
+    overrides: &[(String, toml::Value)],
+) -> Result<RunConfig, ConfigError> {
+    let dir = saved.parent().map(|p| p.to_path_buf()).unwrap_or_default();
+    let saved_tree = read_toml(saved)?;
+    let saved_cfg: RunConfig = saved_tree
+        .clone()
+        .try_into()
+        .map_err(|e: toml::de::Error| ConfigError::Parse {
+            origin: saved.display().to_string(),
+            message: e.to_string(),
+        })?;
+    let file_value = file.map(read_toml).transpose()?;
+    for p in [preset, preset_of(file_value.as_ref())?]
+        .into_iter()
+        .flatten()
+    {
+        if p != saved_cfg.preset {
+            return Err(ConfigError::ResumeMismatch {
+                dir,
+                differences: format!(
+                    "preset: the run has {}, given {}",
+                    saved_cfg.preset.name(),
+                    p.name()
+                ),
+            });
+        }
+    }
+    let base = toml::Value::try_from(&saved_cfg).expect("configurations serialise");
+    let cfg = finish(base, saved_cfg.preset, file, file_value, overrides)?;
+    let mut diffs = Vec::new();
+    let (mut a, mut b) = (saved_cfg.clone(), cfg.clone());
+    a.out = None;
+    b.out = None;
+    diff_trees(
+        "",
+        &toml::Value::try_from(&a).expect("serialises"),
+        &toml::Value::try_from(&b).expect("serialises"),
+        &mut diffs,
+    );
+    if !diffs.is_empty() {
+        return Err(ConfigError::ResumeMismatch {
+            dir,
+            differences: diffs.join("; "),
+        });
+    }
+    Ok(cfg)
+}
+
+/// Appends `key: the run has A, given B` for every leaf where `a` and `b` differ.
+fn diff_trees(prefix: &str, a: &toml::Value, b: &toml::Value, out: &mut Vec<String>) {
+    let key = |k: &str| {
+        if prefix.is_empty() {
+            k.to_string()
+        } else {
+            format!("{prefix}.{k}")
+        }
+    };
+    match (a, b) {
+        (toml::Value::Table(ta), toml::Value::Table(tb)) => {
+            let mut keys: Vec<&String> = ta.keys().chain(tb.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            for k in keys {
+                match (ta.get(k), tb.get(k)) {
+                    (Some(x), Some(y)) => diff_trees(&key(k), x, y, out),
+                    (x, y) => out.push(format!(
+                        "{}: the run has {}, given {}",
+                        key(k),
+                        x.map_or("nothing".into(), |v| v.to_string()),
+                        y.map_or("nothing".into(), |v| v.to_string())
+                    )),
+                }
+            }
+        }
+        _ if a != b => out.push(format!("{prefix}: the run has {a}, given {b}")),
+        _ => {}
+    }
+}
+
+/// Reports the first non-finite float anywhere in a configuration tree, naming its dotted key
+/// (serde accepts `nan` and `inf` for every float field; none of them means anything useful).
+fn check_finite(prefix: &str, v: &toml::Value) -> Result<(), ConfigError> {
+    match v {
+        toml::Value::Float(f) if !f.is_finite() => {
+            Err(invalid(prefix, f, "must be a finite number"))
+        }
+        toml::Value::Table(t) => {
+            for (k, x) in t {
+                let key = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                check_finite(&key, x)?;
+            }
+            Ok(())
+        }
+        toml::Value::Array(a) => a.iter().try_for_each(|x| check_finite(prefix, x)),
+        _ => Ok(()),
+    }
+}
+
+/// Largest grid points per axis of a marching-cubes pass: the SDF grid alone takes `res³ × 4`
+/// bytes (32 GiB at 2048); the reference extracts at 512.
+pub const MAX_MESH_RES: usize = 2048;
+
 impl RunConfig {
     /// Range checks that serde cannot express; each error names the key.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        check_finite(
+            "",
+            &toml::Value::try_from(self).expect("configurations serialise"),
+        )?;
         let t = &self.train;
         let o = &t.optimizer;
         if !(o.lr.is_finite() && o.lr > 0.0) {
@@ -489,11 +638,26 @@ impl RunConfig {
             return Err(invalid("data.render_downscale", 0, "must be at least 1"));
         }
         let m = &self.mesh;
-        if m.coarse_res < 2 || m.fine_res < 2 {
+        for (k, res) in [
+            ("mesh.coarse_res", m.coarse_res),
+            ("mesh.fine_res", m.fine_res),
+        ] {
+            if !(2..=MAX_MESH_RES).contains(&res) {
+                return Err(invalid(
+                    k,
+                    res,
+                    &format!(
+                        "must be in 2..={MAX_MESH_RES} grid points per axis (the SDF grid takes \
+                         res³ × 4 bytes)"
+                    ),
+                ));
+            }
+        }
+        if !(m.pad_fraction.is_finite() && (0.0..=10.0).contains(&m.pad_fraction)) {
             return Err(invalid(
-                "mesh.fine_res",
-                m.fine_res.min(m.coarse_res),
-                "must be at least 2",
+                "mesh.pad_fraction",
+                m.pad_fraction,
+                "must be in [0, 10] (a fraction of the coarse mesh's extent)",
             ));
         }
         if !(0.0..=1.0).contains(&m.clean_min_area_share) {
@@ -504,11 +668,65 @@ impl RunConfig {
             ));
         }
         let r = &self.model.render;
-        if r.num_samples_per_ray == 0 || r.train_num_rays == 0 || r.max_train_num_rays == 0 {
+        for (k, n) in [
+            ("model.render.num_samples_per_ray", r.num_samples_per_ray),
+            ("model.render.train_num_rays", r.train_num_rays),
+            ("model.render.max_train_num_rays", r.max_train_num_rays),
+            ("model.render.chunk_samples", r.chunk_samples),
+        ] {
+            if n == 0 {
+                return Err(invalid(k, n, "must be at least 1"));
+            }
+        }
+        if !(r.radius.is_finite() && r.radius > 0.0) {
             return Err(invalid(
-                "model.render.num_samples_per_ray",
-                r.num_samples_per_ray,
-                "sample and ray counts must be positive",
+                "model.render.radius",
+                r.radius,
+                "must be finite and > 0",
+            ));
+        }
+        if r.background.iter().any(|c| !(0.0..=1.0).contains(c)) {
+            return Err(invalid(
+                "model.render.background",
+                format!("{:?}", r.background),
+                "each channel must be in [0, 1]",
+            ));
+        }
+        let occ = &r.occupancy;
+        if !(1..=1024).contains(&occ.resolution) {
+            return Err(invalid(
+                "model.render.occupancy.resolution",
+                occ.resolution,
+                "must be in 1..=1024",
+            ));
+        }
+        if !(occ.threshold.is_finite() && occ.threshold >= 0.0) {
+            return Err(invalid(
+                "model.render.occupancy.threshold",
+                occ.threshold,
+                "must be finite and ≥ 0",
+            ));
+        }
+        if !(0.0..=1.0).contains(&occ.ema_decay) {
+            return Err(invalid(
+                "model.render.occupancy.ema_decay",
+                occ.ema_decay,
+                "must be in [0, 1]",
+            ));
+        }
+        if occ.enabled && occ.update_every == 0 {
+            return Err(invalid(
+                "model.render.occupancy.update_every",
+                0,
+                "must be at least 1 when the occupancy grid is enabled",
+            ));
+        }
+        let sdf = &self.model.field.sdf;
+        if !(sdf.sphere_init_radius.is_finite() && sdf.sphere_init_radius > 0.0) {
+            return Err(invalid(
+                "model.field.sdf.sphere_init_radius",
+                sdf.sphere_init_radius,
+                "must be finite and > 0",
             ));
         }
         let l = &self.model.loss;
@@ -522,13 +740,17 @@ impl RunConfig {
                 return Err(invalid(&format!("model.loss.{k}"), w, why));
             }
         }
-        self.model
-            .field
-            .validate()
-            .map_err(|e| invalid("model.field", "", &e.to_string()))?;
-        self.augment
-            .validate()
-            .map_err(|e| invalid("augment", "", &e.to_string()))?;
+        self.model.field.validate().map_err(|e| match e {
+            crate::field::config::ConfigError::Invalid { key, value, why } => {
+                invalid(&format!("model.field.{key}"), value, why)
+            }
+        })?;
+        self.augment.validate().map_err(|e| match e {
+            crate::augment::AugmentError::OutOfRange { what, value, range } => {
+                invalid(&what, value, &format!("must be in {range}"))
+            }
+            other => invalid("augment", "", &other.to_string()),
+        })?;
         Ok(())
     }
 
@@ -689,6 +911,68 @@ mod tests {
             &[parse_set("model.loss.mask=[0, 0.1, -1.0, 10]").unwrap()],
         );
         assert!(bad.unwrap_err().to_string().contains("model.loss.mask"));
+    }
+
+    #[test]
+    fn resume_keeps_the_saved_configuration_and_names_every_difference() {
+        let dir = tempfile::tempdir().unwrap();
+        let saved = dir.path().join("config.toml");
+        let sets = vec![
+            parse_set("seed=7").unwrap(),
+            parse_set("scene=torus").unwrap(),
+            parse_set("train.iterations=33").unwrap(),
+        ];
+        let c = resolve(Some(Preset::Fast), None, &sets).unwrap();
+        std::fs::write(&saved, c.to_toml()).unwrap();
+        // No options: the saved configuration, whatever the default preset says.
+        assert_eq!(resolve_resume(&saved, None, None, &[]).unwrap(), c);
+        // Agreeing options (and another spelling of the output folder) are accepted.
+        let same = vec![
+            parse_set("seed=7").unwrap(),
+            parse_set("out=\"elsewhere\"").unwrap(),
+        ];
+        let r = resolve_resume(&saved, Some(Preset::Fast), None, &same).unwrap();
+        assert_eq!(r.out, Some(PathBuf::from("elsewhere")));
+        // Two changed values: both named, with the saved and the given value.
+        let e = resolve_resume(
+            &saved,
+            None,
+            None,
+            &[
+                parse_set("seed=8").unwrap(),
+                parse_set("mesh.fine_res=64").unwrap(),
+            ],
+        )
+        .unwrap_err()
+        .to_string();
+        for want in [
+            "seed: the run has 7, given 8",
+            "mesh.fine_res: the run has 256, given 64",
+        ] {
+            assert!(e.contains(want), "{e}");
+        }
+        let e = resolve_resume(&saved, Some(Preset::Paper), None, &[])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("preset: the run has fast, given paper"), "{e}");
+        // The saved file is never rewritten by resolution.
+        assert_eq!(std::fs::read_to_string(&saved).unwrap(), c.to_toml());
+    }
+
+    #[test]
+    fn nan_is_refused_in_any_float_key_by_name() {
+        for key in [
+            "mesh.pad_fraction",
+            "model.render.occupancy.ema_decay",
+            "model.render.variance_init",
+            "train.lr.warmup_start",
+            "model.field.sdf.softplus_beta",
+        ] {
+            let e = resolve(None, None, &[parse_set(&format!("{key}=nan")).unwrap()])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(key) && e.contains("NaN"), "{key}: {e}");
+        }
     }
 
     #[test]

@@ -9,13 +9,23 @@
 //! Output folder: `config.toml` (resolved configuration, written first), `checkpoint.safetensors`,
 //! `mesh.ply` (world mm, binary, cleaned: `mesh::clean`), `mesh_raw.ply` (the marching-cubes mesh before clean-up, when that removed anything), `renders/`, and `metrics.json`, written last: a folder without
 //! `metrics.json` holds an unfinished run, never one that looks complete.
+//!
+//! A run folder is never lost or mixed up: `.neus-aug-run.lock` ([`lock`]) is held for the whole
+//! run, so a second process writing into the same folder is refused naming the holder; a
+//! non-empty folder that is not a neus-aug run is refused; and the scene, masks, training set and
+//! model are all loaded and validated, and a resumed checkpoint read and checked, before anything
+//! in the folder is removed or written (so a refused `--force` or `--resume` changes nothing).
+//! Every file is written atomically ([`dtu_eval::atomic`]).
 
 pub mod config;
+pub mod lock;
 pub mod normal_error;
 
 pub use config::{
-    parse_set, resolve, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig, Preset, RunConfig,
+    parse_set, resolve, resolve_resume, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig,
+    Preset, RunConfig,
 };
+pub use lock::{LockError, RunLock, LOCK_FILE};
 
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
 use crate::mesh::clean::{clean_mesh, CleanOptions};
@@ -49,6 +59,9 @@ pub enum ReconstructError {
     /// `--out` is unusable or holds another run.
     #[error("output folder {path}: {problem}")]
     Output { path: PathBuf, problem: String },
+    /// Another process is writing the run folder.
+    #[error(transparent)]
+    Lock(#[from] LockError),
     #[error(transparent)]
     Config(#[from] ConfigError),
     #[error(transparent)]
@@ -280,20 +293,10 @@ pub struct Metrics {
     pub version: String,
 }
 
-/// Writes `text` to `path` atomically.
+/// Writes `text` to `path` with the workspace's one atomic writer
+/// ([`dtu_eval::atomic::write_atomic`]).
 fn write_atomic(path: &Path, text: &str) -> Result<(), ReconstructError> {
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(format!(".tmp{}", std::process::id()));
-    let tmp = path.with_file_name(name);
-    std::fs::write(&tmp, text)
-        .and_then(|_| std::fs::rename(&tmp, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            ReconstructError::Io {
-                path: path.into(),
-                source: e,
-            }
-        })
+    dtu_eval::atomic::write_atomic(path, text.as_bytes()).map_err(io_err(path))
 }
 
 /// The output folder of a run.
@@ -309,36 +312,73 @@ pub fn output_dir(cfg: &RunConfig, scene: &ResolvedScene) -> PathBuf {
     })
 }
 
-/// Checks the output folder before any work: not a file; not a finished run (unless `force`);
-/// not an unfinished one with a checkpoint (unless `resume` or `force`).
-fn prepare_output(out: &Path, opts: &RunOptions) -> Result<(), ReconstructError> {
-    let err = |problem: &str| ReconstructError::Output {
+/// Whether `out` holds a neus-aug run: its lock file, or (runs written before the lock existed) a
+/// `config.toml` that parses as a [`RunConfig`] beside `metrics.json` or a checkpoint, or a
+/// neus-aug checkpoint (a study copies one into a new run folder to reuse its training).
+fn is_run_folder(out: &Path) -> bool {
+    if out.join(LOCK_FILE).is_file() {
+        return true;
+    }
+    let ckpt = out.join("checkpoint.safetensors");
+    let config_ok = std::fs::read_to_string(out.join("config.toml"))
+        .ok()
+        .is_some_and(|t| toml::from_str::<RunConfig>(&t).is_ok());
+    (config_ok && (out.join("metrics.json").is_file() || ckpt.is_file()))
+        || checkpoint::is_checkpoint(&ckpt)
+}
+
+/// Checks the output folder, touching nothing: not a file; not written by another process now
+/// (unless this process holds the lock: `locked`); empty or a neus-aug run; not a finished run
+/// (unless `force`); not an unfinished one with a checkpoint (unless `resume` or `force`).
+fn check_output(out: &Path, opts: &RunOptions, locked: bool) -> Result<(), ReconstructError> {
+    let err = |problem: String| ReconstructError::Output {
         path: out.into(),
-        problem: problem.into(),
+        problem,
     };
-    if out.exists() && !out.is_dir() {
-        return Err(err("is a file, not a folder; choose another --out"));
+    if !out.exists() {
+        return Ok(());
+    }
+    if !out.is_dir() {
+        return Err(err("is a file, not a folder; choose another --out".into()));
+    }
+    if !locked {
+        RunLock::check_free(out)?;
+    }
+    let mut names: Vec<String> = std::fs::read_dir(out)
+        .map_err(io_err(out))?
+        .filter_map(Result::ok)
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    if !names.is_empty() && !is_run_folder(out) {
+        names.sort();
+        let shown = names.iter().take(5).cloned().collect::<Vec<_>>().join(", ");
+        let more = if names.len() > 5 { ", …" } else { "" };
+        return Err(err(format!(
+            "is not empty ({shown}{more}) and does not hold a neus-aug run; refusing to write \
+             into it: choose a new or empty --out"
+        )));
     }
     if out.join("metrics.json").is_file() && !opts.force {
         return Err(err(
-            "already holds a finished run (metrics.json); use --force to redo it or another --out",
+            "already holds a finished run (metrics.json); use --force to redo it or another --out"
+                .into(),
         ));
     }
     if out.join("checkpoint.safetensors").is_file() && !opts.resume && !opts.force {
         return Err(err(
-            "holds the checkpoint of an unfinished run; use --resume to continue it or --force to start over",
+            "holds the checkpoint of an unfinished run; use --resume to continue it or --force to start over"
+                .into(),
         ));
     }
-    std::fs::create_dir_all(out).map_err(io_err(out))?;
-    if opts.force {
-        for f in ["metrics.json", "mesh.ply", "mesh_raw.ply"] {
-            let _ = std::fs::remove_file(out.join(f));
-        }
-        if !opts.resume {
-            let _ = std::fs::remove_file(out.join("checkpoint.safetensors"));
-        }
-    }
     Ok(())
+}
+
+/// Removes `path` if it exists (a missing file is fine; any other failure is an error).
+fn remove_if_present(path: &Path) -> Result<(), ReconstructError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io_err(path)(e)),
+        _ => Ok(()),
+    }
 }
 
 /// Finds ground truth for the scene: `eval.gt_root` (+ scan) or the scene folder itself
@@ -450,12 +490,12 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let mut timings = Timings::default();
     let quiet = opts.quiet;
 
-    // Scene and output folder.
+    // Scene, and a first look at the output folder (nothing is touched until everything the
+    // run needs has loaded and validated).
     let t = Instant::now();
     let scene_ref = resolve_scene(&cfg.scene, &cfg.data_root, quiet)?;
     let out = output_dir(cfg, &scene_ref);
-    prepare_output(&out, opts)?;
-    write_atomic(&out.join("config.toml"), &cfg.to_toml())?;
+    check_output(&out, opts, false)?;
     let scene = Scene::load(
         &scene_ref.dir,
         &LoadOptions {
@@ -504,10 +544,48 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let model = NeusModel::new(cfg.model.clone())?;
     timings.prepare = t.elapsed().as_secs_f64();
 
-    // Training.
-    let t = Instant::now();
+    // The output folder: lock it, look again (another process may have finished a run there
+    // meanwhile), read a checkpoint to resume; only then remove old outputs and write.
+    std::fs::create_dir_all(&out).map_err(io_err(&out))?;
+    let lock = RunLock::acquire(&out)?;
+    if let Some(pid) = lock.previous {
+        say(
+            quiet,
+            format!(
+                "{}: taking over the lock of pid {pid}, which ended without releasing it",
+                out.display()
+            ),
+        );
+    }
+    check_output(&out, opts, true)?;
     let hash = cfg.training_hash();
     let ckpt_path = out.join("checkpoint.safetensors");
+    let resumed: Option<TrainState> = if opts.resume && ckpt_path.is_file() {
+        Some(checkpoint::load(
+            &ckpt_path,
+            &model.layout,
+            &cfg.train.optimizer,
+            &hash,
+        )?)
+    } else {
+        None
+    };
+    if opts.force {
+        for f in ["metrics.json", "mesh.ply", "mesh_raw.ply"] {
+            remove_if_present(&out.join(f))?;
+        }
+        if resumed.is_none() {
+            remove_if_present(&ckpt_path)?;
+        }
+    }
+    let config_path = out.join("config.toml");
+    let config_toml = cfg.to_toml();
+    if std::fs::read_to_string(&config_path).ok().as_deref() != Some(config_toml.as_str()) {
+        write_atomic(&config_path, &config_toml)?;
+    }
+
+    // Training.
+    let t = Instant::now();
     let mut trainer = Trainer::new(
         &model,
         &data,
@@ -515,15 +593,14 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         cfg.seed,
         cfg.augment.seed ^ cfg.seed,
     );
-    let mut state: TrainState = if opts.resume && ckpt_path.is_file() {
-        let s = checkpoint::load(&ckpt_path, &model.layout, &cfg.train.optimizer, &hash)?;
-        say(quiet, format!("resuming from step {}", s.step));
-        s
-    } else {
-        trainer.initial_state()
+    let mut state: TrainState = match resumed {
+        Some(s) => {
+            say(quiet, format!("resuming from step {}", s.step));
+            s
+        }
+        None => trainer.initial_state(),
     };
     let resumed_from = (state.step > 0).then_some(state.step);
-    let config_toml = cfg.to_toml();
     let iters = cfg.train.iterations;
     let mut progress = Progress::new(iters, state.step, quiet);
     let (mut rays, mut samples) = (0u64, 0u64);
@@ -844,5 +921,6 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             out.join("metrics.json").display()
         ),
     );
+    drop(lock);
     Ok(metrics)
 }

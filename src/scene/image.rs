@@ -139,12 +139,27 @@ impl RgbImage {
         let bytes = quantize(&self.data, self.width, 3, path)?;
         let buf = image::RgbImage::from_raw(self.width as u32, self.height as u32, bytes)
             .expect("buffer length matches the image size");
-        buf.save_with_format(path, image::ImageFormat::Png)
-            .map_err(|source| ImageError::Encode {
-                path: path.into(),
-                source,
-            })
+        write_png(path, |out| {
+            buf.write_to(&mut std::io::Cursor::new(out), image::ImageFormat::Png)
+        })
     }
+}
+
+/// Encodes a PNG in memory with `encode`, then writes it with the workspace's one atomic writer
+/// ([`dtu_eval::atomic::write_atomic`]): every write checked, fsync, rename; a failed or cut-short
+/// write never leaves a truncated PNG under `path`, and a `path` that is not a regular file
+/// (FIFO, device, symbolic link) is refused.
+fn write_png(
+    path: &Path,
+    encode: impl FnOnce(&mut Vec<u8>) -> image::ImageResult<()>,
+) -> Result<(), ImageError> {
+    let err = |source| ImageError::Encode {
+        path: path.into(),
+        source,
+    };
+    let mut bytes = Vec::new();
+    encode(&mut bytes).map_err(err)?;
+    dtu_eval::atomic::write_atomic(path, &bytes).map_err(|e| err(image::ImageError::IoError(e)))
 }
 
 impl GrayImage {
@@ -193,11 +208,9 @@ impl GrayImage {
         let bytes = quantize(&self.data, self.width, 1, path)?;
         let buf = image::GrayImage::from_raw(self.width as u32, self.height as u32, bytes)
             .expect("buffer length matches the image size");
-        buf.save_with_format(path, image::ImageFormat::Png)
-            .map_err(|source| ImageError::Encode {
-                path: path.into(),
-                source,
-            })
+        write_png(path, |out| {
+            buf.write_to(&mut std::io::Cursor::new(out), image::ImageFormat::Png)
+        })
     }
 
     /// Fraction of pixels with value `> 0.5` (the object's share of the image for a mask).

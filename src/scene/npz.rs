@@ -98,18 +98,16 @@ pub fn read(path: &Path) -> Result<BTreeMap<String, NpArray>, NpzError> {
 }
 
 /// Writes `(name, shape, row-major values)` arrays as an uncompressed `.npz` of `<f8` arrays
-/// (what `np.savez` writes), atomically (temporary file + rename).
+/// (what `np.savez` writes), atomically ([`dtu_eval::atomic::write_atomic`]).
 pub fn write(path: &Path, arrays: &[(String, Vec<usize>, Vec<f64>)]) -> Result<(), NpzError> {
     let io = |source| NpzError::Io {
         path: path.into(),
         source,
     };
-    let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
-    tmp_name.push(format!(".tmp{}", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
     let result = (|| -> std::io::Result<()> {
-        let file = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
-        let mut zip = zip::ZipWriter::new(file);
+        // Built in memory (a zip needs to seek back), then written with the workspace's one
+        // atomic writer.
+        let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
         let opts = zip::write::SimpleFileOptions::default()
             .compression_method(zip::CompressionMethod::Stored);
         for (name, shape, data) in arrays {
@@ -130,14 +128,9 @@ pub fn write(path: &Path, arrays: &[(String, Vec<usize>, Vec<f64>)]) -> Result<(
             }
             zip.write_all(&buf)?;
         }
-        let mut file = zip.finish().map_err(std::io::Error::other)?;
-        file.flush()?;
-        file.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
+        let bytes = zip.finish().map_err(std::io::Error::other)?.into_inner();
+        dtu_eval::atomic::write_atomic(path, &bytes)
     })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
     result.map_err(io)
 }
 

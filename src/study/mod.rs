@@ -131,24 +131,13 @@ pub(crate) fn io_err(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> S
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file and a rename, so a reader (or a kill) never
-/// sees half a file.
+/// Writes `bytes` to `path` with the workspace's one atomic writer
+/// ([`dtu_eval::atomic::write_atomic`]), creating the parent folder first.
 pub(crate) fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<(), StudyError> {
     if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
         std::fs::create_dir_all(parent).map_err(io_err(parent))?;
     }
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(format!(".tmp{}", std::process::id()));
-    let tmp = path.with_file_name(name);
-    std::fs::write(&tmp, bytes)
-        .and_then(|_| std::fs::rename(&tmp, path))
-        .map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            StudyError::Io {
-                path: path.into(),
-                source: e,
-            }
-        })
+    dtu_eval::atomic::write_atomic(path, bytes).map_err(io_err(path))
 }
 
 /// FNV-1a 64 of `bytes` as 16 hex digits (the same hash `RunConfig::training_hash` uses).

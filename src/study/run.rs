@@ -81,10 +81,8 @@ fn reuse_checkpoint(dir: &Path, src: &str, dst: &str) -> Result<bool, StudyError
         return Ok(false);
     }
     std::fs::create_dir_all(&d).map_err(io_err(&d))?;
-    let tmp = d.join("checkpoint.safetensors.copy");
-    std::fs::copy(&from, &tmp)
-        .and_then(|_| std::fs::rename(&tmp, &to))
-        .map_err(io_err(&to))?;
+    let bytes = std::fs::read(&from).map_err(io_err(&from))?;
+    dtu_eval::atomic::write_atomic(&to, &bytes).map_err(io_err(&to))?;
     Ok(true)
 }
 
@@ -214,15 +212,9 @@ fn eta(elapsed: f64, done: usize, todo: usize) -> String {
     format!(" (about {:.0} min left)", left / 60.0)
 }
 
+/// The error and its causes on one line, each cause once ([`dtu_eval::error::error_chain`]).
 fn error_chain(e: &dyn std::error::Error) -> String {
-    let mut s = e.to_string();
-    let mut src = e.source();
-    while let Some(x) = src {
-        s.push_str(": ");
-        s.push_str(&x.to_string());
-        src = x.source();
-    }
-    s.replace('\n', " ")
+    dtu_eval::error::error_chain(e).replace('\n', " ")
 }
 
 /// Plans a study folder for job emission: the same checks as [`execute`] (a mismatching folder

@@ -73,7 +73,7 @@ fn bytes_f32(b: &[u8]) -> Vec<f32> {
         .collect()
 }
 
-/// Writes `state` to `path` atomically (temporary sibling, fsync, rename).
+/// Writes `state` to `path` atomically ([`dtu_eval::atomic::write_atomic`]).
 pub fn save(
     path: &Path,
     state: &TrainState,
@@ -136,24 +136,52 @@ pub fn save(
     .map(|(k, v)| (k.to_string(), v))
     .collect();
     let bytes = safetensors::serialize(views, Some(meta)).map_err(|e| invalid(e.to_string()))?;
-    let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
-    tmp_name.push(format!(".tmp{}", std::process::id()));
-    let tmp = path.with_file_name(tmp_name);
-    let io = |source| CheckpointError::Io {
+    dtu_eval::atomic::write_atomic(path, &bytes).map_err(|source| CheckpointError::Io {
         path: path.into(),
         source,
-    };
-    let write = || -> std::io::Result<()> {
-        use std::io::Write;
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    };
-    write().map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io(e)
     })
+}
+
+/// Whether `path` is a neus-aug checkpoint: a safetensors file whose metadata `format` is
+/// [`FORMAT`]. Reads only the header; never fails (a missing or foreign file is `false`).
+pub fn is_checkpoint(path: &Path) -> bool {
+    use std::io::Read;
+    let read = || -> Option<bool> {
+        let mut f = std::fs::File::open(path).ok()?;
+        let mut len = [0u8; 8];
+        f.read_exact(&mut len).ok()?;
+        let n = u64::from_le_bytes(len);
+        if n > 100 << 20 {
+            return None;
+        }
+        let mut header = vec![0u8; n as usize];
+        f.read_exact(&mut header).ok()?;
+        let v: serde_json::Value = serde_json::from_slice(&header).ok()?;
+        Some(v["__metadata__"]["format"].as_str() == Some(FORMAT))
+    };
+    read().unwrap_or(false)
+}
+
+/// Checks that every value of tensor `name` is finite (and, for `non_negative`, such as Adam's
+/// second moment, not below 0): a damaged optimiser state would otherwise make every remaining
+/// step be skipped by the NaN guard while the run still reports success.
+fn check_values(name: &str, values: &[f32], non_negative: bool) -> Result<(), String> {
+    let bad = |x: f32| !x.is_finite() || (non_negative && x < 0.0);
+    match values.iter().position(|&x| bad(x)) {
+        None => Ok(()),
+        Some(i) => {
+            let count = values.iter().filter(|&&x| bad(x)).count();
+            let want = if non_negative {
+                "finite and ≥ 0"
+            } else {
+                "finite"
+            };
+            Err(format!(
+                "tensor {name} has {count} value(s) that are not {want} (first: element {i} = {})",
+                values[i]
+            ))
+        }
+    }
 }
 
 /// Reads a checkpoint written by [`save`] for a model with `layout`, refusing one whose
@@ -222,12 +250,11 @@ pub fn load(
             ("adam_m", &mut m),
             ("adam_v", &mut v),
         ] {
-            let data = tensor(&format!("{prefix}.{}", g.name), Dtype::F32, &g.shape)?;
-            buf[r.clone()].copy_from_slice(&bytes_f32(&data));
+            let name = format!("{prefix}.{}", g.name);
+            let values = bytes_f32(&tensor(&name, Dtype::F32, &g.shape)?);
+            check_values(&name, &values, prefix == "adam_v").map_err(invalid)?;
+            buf[r.clone()].copy_from_slice(&values);
         }
-    }
-    if params.iter().any(|x| !x.is_finite()) {
-        return Err(invalid("parameters contain NaN or infinity".into()));
     }
     let occ_t = st
         .tensor("occupancy.occ")
@@ -236,8 +263,14 @@ pub fn load(
     let radius: f32 = get("occupancy_radius")?
         .parse()
         .map_err(|_| invalid("metadata 'occupancy_radius' is not a number".into()))?;
+    if !(radius.is_finite() && radius > 0.0) {
+        return Err(invalid(format!(
+            "metadata 'occupancy_radius' = {radius} is not a positive number"
+        )));
+    }
     let mut occ = OccupancyGrid::new(res, radius);
     occ.occ = bytes_f32(&tensor("occupancy.occ", Dtype::F32, &[res, res, res])?);
+    check_values("occupancy.occ", &occ.occ, false).map_err(invalid)?;
     occ.binary = tensor("occupancy.binary", Dtype::U8, &[res, res, res])?
         .iter()
         .map(|&b| b != 0)
