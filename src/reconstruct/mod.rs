@@ -19,8 +19,8 @@ pub use config::{
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
 use crate::mesh::{extract_two_pass, to_world, McError, McOptions, TopologyReport, TwoPassOptions};
 use crate::render::model::{ModelError, NeusModel, RayBatch};
-use crate::scene::sim::{self, SimError};
 use crate::scene::{GrayImage, LoadOptions, RgbImage, Scene, SceneError};
+use crate::sim::{self, SimError};
 use crate::train::checkpoint::{self, CheckpointError, TrainState};
 use crate::train::data::{camera_rays, DataError};
 use crate::train::metrics::{psnr, ssim};
