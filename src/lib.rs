@@ -1,11 +1,12 @@
 //! neus-aug: NeuS surface reconstruction on the CPU with colour-only image augmentations.
 //!
 //! Modules in layer order (../shared/DESIGN.md §1), each importing only from those before it:
-//! the `dtu_eval` crate (the DTU Chamfer protocol; the ground floor) → [`scene`] (DTU-layout I/O,
-//! cameras, rays) → [`augment`] (colour manipulations, degradations, SIA/DIA) → [`field`] →
-//! [`render`] → [`train`] → [`mesh`] → [`sim`] (the simulator: uses `scene`, `augment` and
-//! `dtu_eval`) → [`reconstruct`] → [`study`] → the `neus-aug` binary's `cli`. Nothing low in the
-//! stack knows about what sits above it.
+//! the `dtu_eval` crate (the DTU Chamfer protocol; the ground floor) and [`util`] (shared helpers
+//! that import nothing) → [`scene`] (DTU-layout I/O, cameras, rays) → [`augment`] (colour
+//! manipulations, degradations, SIA/DIA) → [`field`] → [`render`] → [`train`] → [`mesh`] →
+//! [`sim`] (the simulator: uses `scene`, `augment` and `dtu_eval`) → [`reconstruct`] →
+//! [`study`] → the `neus-aug` binary's `cli`. Nothing low in the stack knows about what sits
+//! above it.
 
 pub mod augment;
 pub mod field;
@@ -16,3 +17,4 @@ pub mod scene;
 pub mod sim;
 pub mod study;
 pub mod train;
+pub mod util;

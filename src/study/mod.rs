@@ -150,8 +150,3 @@ pub(crate) fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<(), S
             }
         })
 }
-
-/// FNV-1a 64 of `bytes` as 16 hex digits (the same hash `RunConfig::training_hash` uses).
-pub(crate) fn fnv_hex(bytes: &[u8]) -> String {
-    format!("{:016x}", crate::sim::fnv1a64(bytes))
-}
