@@ -50,17 +50,17 @@
 //! by the plan's order and formats floats with fixed precision, so its outputs regenerate bit for
 //! bit.
 
-pub mod collect;
 pub mod grid;
 pub mod jobs;
 pub mod plan;
 pub mod plot;
+pub mod report;
 pub mod run;
 pub mod stats;
 
-pub use collect::{collect, CollectSummary, RunRecord};
 pub use grid::{Grid, StudyOptions};
 pub use plan::{RunSpec, StudyPlan};
+pub use report::{collect, CollectSummary, RunRecord};
 pub use run::{execute, ExecOptions, ExecSummary};
 
 use std::path::PathBuf;
