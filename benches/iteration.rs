@@ -13,7 +13,8 @@
 use neus_aug::augment::{AugMode, AugSampler};
 use neus_aug::reconstruct::{parse_set, resolve, Preset};
 use neus_aug::render::model::NeusModel;
-use neus_aug::scene::{sim, LoadOptions, Scene};
+use neus_aug::scene::{LoadOptions, Scene};
+use neus_aug::sim;
 use neus_aug::train::{TrainConfig, TrainData, TrainState, Trainer};
 use std::time::Instant;
 

@@ -6,9 +6,9 @@
 //! Run: `cargo bench --bench sim` (about a minute on 2 cores). `SIM_BENCH_QUICK=1` renders 9 views
 //! and samples ground truth at 0.5 mm instead.
 
-use neus_aug::scene::sim::desc::{Shadows, Specular};
-use neus_aug::scene::sim::setup::{crease_normals, Tracer};
-use neus_aug::scene::sim::{builtin, shapes, Counters, SceneDescription, SimScene, DEFAULT_SCENE};
+use neus_aug::sim::desc::{Shadows, Specular};
+use neus_aug::sim::setup::{crease_normals, Tracer};
+use neus_aug::sim::{builtin, shapes, Counters, SceneDescription, SimScene, DEFAULT_SCENE};
 use std::time::Instant;
 
 fn render(desc: &SceneDescription) -> (f64, Counters) {

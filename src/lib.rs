@@ -1,8 +1,12 @@
 //! neus-aug: NeuS surface reconstruction on the CPU with colour-only image augmentations.
 //!
-//! Modules in data-flow order (../shared/DESIGN.md §1): [`scene`] (DTU-layout I/O, cameras, rays,
-//! the simulator) → [`augment`] → [`field`] → [`render`] → [`train`] → [`mesh`] → evaluation (the
-//! `dtu_eval` crate). Nothing low in the stack knows about what sits above it.
+//! Modules in layer order (../shared/DESIGN.md §1), each importing only from those before it:
+//! the `dtu_eval` crate (the DTU Chamfer protocol; the ground floor) and [`util`] (shared helpers
+//! that import nothing) → [`scene`] (DTU-layout I/O, cameras, rays) → [`augment`] (colour
+//! manipulations, degradations, SIA/DIA) → [`field`] → [`render`] → [`train`] → [`mesh`] →
+//! [`sim`] (the simulator: uses `scene`, `augment` and `dtu_eval`) → [`reconstruct`] →
+//! [`study`] → the `neus-aug` binary's `cli`. Nothing low in the stack knows about what sits
+//! above it.
 
 pub mod augment;
 pub mod field;
@@ -10,5 +14,7 @@ pub mod mesh;
 pub mod reconstruct;
 pub mod render;
 pub mod scene;
+pub mod sim;
 pub mod study;
 pub mod train;
+pub mod util;

@@ -5,10 +5,10 @@
 
 mod sim_common;
 
-use neus_aug::scene::sim::desc::{
+use neus_aug::sim::desc::{
     Exposure, GroundPlane, LightJitter, ShadingModel, Shadows, Specular, Texture,
 };
-use neus_aug::scene::sim::{Counters, SceneDescription, SimScene};
+use neus_aug::sim::{Counters, SceneDescription, SimScene};
 use sim_common::{bit_identical, differing_values, render_all, small};
 
 /// The default scene, tiny: 48×36, 3 views, 4 samples per pixel.

@@ -2,7 +2,7 @@
 //! keys, malformed TOML, meshes without faces or with NaN vertices, an empty resolution, and
 //! inconsistent effects; through the library and through `neus-aug synth`.
 
-use neus_aug::scene::sim::{SceneDescription, SimError, SimScene};
+use neus_aug::sim::{SceneDescription, SimError, SimScene};
 use std::path::Path;
 use std::process::Command;
 
@@ -41,7 +41,7 @@ fn printed_descriptions_parse_back() {
     assert!(out.status.success());
     let text = String::from_utf8(out.stdout).unwrap();
     let d = parse(&text).unwrap();
-    let mut expected = neus_aug::scene::sim::builtin("blocks").unwrap();
+    let mut expected = neus_aug::sim::builtin("blocks").unwrap();
     expected.rig.views = 7;
     expected.effects.degrade = vec!["poisson:10".into()];
     assert_eq!(d, expected);

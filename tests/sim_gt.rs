@@ -5,10 +5,10 @@
 mod sim_common;
 
 use nalgebra::Vector3;
-use neus_aug::scene::sim::gt::{sample_surface, VERTEX_POINT};
-use neus_aug::scene::sim::render::sample_offsets;
-use neus_aug::scene::sim::{SceneDescription, SimScene};
 use neus_aug::scene::Camera;
+use neus_aug::sim::gt::{sample_surface, VERTEX_POINT};
+use neus_aug::sim::render::sample_offsets;
+use neus_aug::sim::{SceneDescription, SimScene};
 use sim_common::small;
 use std::collections::HashSet;
 
@@ -359,7 +359,7 @@ fn check_observation_mask(desc: &SceneDescription, n_check: usize) {
     let surface: HashSet<[i64; 3]> = gt
         .points
         .iter()
-        .map(|p| neus_aug::scene::sim::gt::voxel_index(*p, m.bb[0], res))
+        .map(|p| neus_aug::sim::gt::voxel_index(*p, m.bb[0], res))
         .collect();
     let r = (dilate / res).floor() as i64;
     let in_band = |v: [i64; 3]| {

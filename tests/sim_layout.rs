@@ -6,8 +6,8 @@
 mod sim_common;
 
 use dtu_eval::gt::{GtPaths, ObsMask, Plane};
-use neus_aug::scene::sim::{self, GenerateOptions, SceneDescription, SimScene};
 use neus_aug::scene::{LoadOptions, Scene};
+use neus_aug::sim::{self, GenerateOptions, SceneDescription, SimScene};
 use sim_common::small;
 use std::collections::BTreeMap;
 use std::path::Path;

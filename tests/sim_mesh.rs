@@ -2,9 +2,9 @@
 //! the rig (bounding sphere of `object.radius_mm`), turned so their up axis is up, with ground
 //! truth; closed meshes are recognised, open ones still work.
 
-use neus_aug::scene::sim::desc::UpAxis;
-use neus_aug::scene::sim::shapes::icosphere;
-use neus_aug::scene::sim::{builtin, SimScene};
+use neus_aug::sim::desc::UpAxis;
+use neus_aug::sim::shapes::icosphere;
+use neus_aug::sim::{builtin, SimScene};
 use std::process::Command;
 
 /// An ellipsoid 3× longer along the file's y axis than across, as (vertices, faces).

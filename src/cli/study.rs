@@ -3,7 +3,7 @@
 use anyhow::Context;
 use neus_aug::augment::AugMode;
 use neus_aug::reconstruct::Preset;
-use neus_aug::study::{self, collect, grid, jobs, plan, Grid, StudyOptions};
+use neus_aug::study::{self, grid, jobs, plan, report, Grid, StudyOptions};
 use std::path::PathBuf;
 
 /// Run one of the paper's experiment grids on the built-in scenes (each run a `reconstruct`
@@ -161,7 +161,7 @@ fn run_collect(args: &StudyArgs) -> anyhow::Result<()> {
     let to = args
         .to
         .clone()
-        .unwrap_or_else(|| dir.join(collect::REPORT_DIR));
+        .unwrap_or_else(|| dir.join(report::REPORT_DIR));
     let c = study::collect(dir, &to).with_context(|| format!("collect {}", dir.display()))?;
     println!(
         "collected {} of {} runs from {} into {}{}",

@@ -1,7 +1,7 @@
 //! `neus-aug synth`: render a synthetic scene into the DTU layout, ground truth included.
 
 use anyhow::{bail, Context};
-use neus_aug::scene::sim::{self, GenerateOptions, SceneDescription};
+use neus_aug::sim::{self, GenerateOptions, SceneDescription};
 use std::path::{Path, PathBuf};
 
 /// Render a built-in or described scene (or a mesh file) into the DTU layout with its ground

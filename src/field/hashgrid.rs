@@ -65,7 +65,9 @@ pub struct HashGrid {
     lanes: Option<Vec<LaneBlock>>,
 }
 
-const PRIMES: [u32; 3] = [1, 2_654_435_761, 805_459_861];
+/// Spatial-hash primes per axis (tcnn `grid.h`; Müller et al. 2022 eq. 4): a hashed corner's
+/// entry is `(x·P0 ^ y·P1 ^ z·P2) mod T`, wrapping `u32`. Shared with [`super::lanes`].
+pub(super) const PRIMES: [u32; 3] = [1, 2_654_435_761, 805_459_861];
 
 #[inline(always)]
 fn corner_of(cell: [u32; 3], c: usize) -> [u32; 3] {

@@ -23,13 +23,11 @@
 // Numeric kernels index several parallel arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
 
-use super::hashgrid::{fd_point, HashGrid, Level};
+use super::hashgrid::{fd_point, HashGrid, Level, PRIMES};
 use super::Real;
 
 /// Lanes per block: 8 levels × 2 features.
 pub const LANES: usize = 16;
-
-const PRIMES: [u32; 3] = [1, 2_654_435_761, 805_459_861];
 
 /// Per-lane constants of a block of up to 8 levels (`F = 2`).
 #[derive(Debug, Clone, PartialEq)]

@@ -781,12 +781,7 @@ impl RunConfig {
             train: &self.train,
         })
         .expect("serialises");
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in text.bytes() {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-        format!("{h:016x}")
+        crate::util::fnv1a64_hex(text.as_bytes())
     }
 
     /// The appearance-embedding input the model needs for the augmentation mode: none for the

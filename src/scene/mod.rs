@@ -5,7 +5,6 @@ pub mod camera;
 pub mod dtu;
 pub mod image;
 pub mod npz;
-pub mod sim;
 pub mod summary;
 
 pub use camera::{Camera, CameraError};

@@ -6,7 +6,7 @@
 use super::StudyError;
 use crate::augment::{AugMode, Degradation, DegradationKind};
 use crate::reconstruct::{Preset, RunConfig};
-use crate::scene::sim;
+use crate::sim;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 use std::str::FromStr;

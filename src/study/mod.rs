@@ -50,17 +50,17 @@
 //! by the plan's order and formats floats with fixed precision, so its outputs regenerate bit for
 //! bit.
 
-pub mod collect;
 pub mod grid;
 pub mod jobs;
 pub mod plan;
 pub mod plot;
+pub mod report;
 pub mod run;
 pub mod stats;
 
-pub use collect::{collect, CollectSummary, RunRecord};
 pub use grid::{Grid, StudyOptions};
 pub use plan::{RunSpec, StudyPlan};
+pub use report::{collect, CollectSummary, RunRecord};
 pub use run::{execute, ExecOptions, ExecSummary};
 
 use std::path::PathBuf;
@@ -138,9 +138,4 @@ pub(crate) fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<(), S
         std::fs::create_dir_all(parent).map_err(io_err(parent))?;
     }
     dtu_eval::atomic::write_atomic(path, bytes).map_err(io_err(path))
-}
-
-/// FNV-1a 64 of `bytes` as 16 hex digits (the same hash `RunConfig::training_hash` uses).
-pub(crate) fn fnv_hex(bytes: &[u8]) -> String {
-    format!("{:016x}", crate::scene::sim::fnv1a64(bytes))
 }

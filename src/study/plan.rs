@@ -6,9 +6,10 @@
 //! `--views-fraction`, `--degrade`, `--out` → the study's `--set` → the run's own settings.
 
 use super::grid::{self, Grid, RunDraft, StudyOptions};
-use super::{fnv_hex, io_err, write_atomic, StudyError};
+use super::{io_err, write_atomic, StudyError};
 use crate::augment::AugMode;
 use crate::reconstruct::{parse_set, resolve, Preset, RunConfig};
+use crate::util::fnv1a64_hex;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -72,7 +73,7 @@ pub struct StudyPlan {
 /// removed (a run folder may be reached by different paths), serialised with sorted keys.
 pub fn config_hash_of_toml(text: &str, origin: &Path) -> Result<String, StudyError> {
     let t = normalised_table(text, origin)?;
-    Ok(fnv_hex(
+    Ok(fnv1a64_hex(
         toml::to_string(&t).expect("tables serialise").as_bytes(),
     ))
 }

@@ -181,8 +181,8 @@ pub fn execute(
             }
         }
     }
-    let report = dir.join(super::collect::REPORT_DIR);
-    let c = super::collect::collect(dir, &report)?;
+    let report = dir.join(super::report::REPORT_DIR);
+    let c = super::report::collect(dir, &report)?;
     eprintln!(
         "study {}: {} ran, {} already finished, {} failed; report in {} ({} of {} runs collected)",
         plan.options.grid,

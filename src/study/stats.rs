@@ -60,7 +60,7 @@ pub struct Ci {
 
 /// The seed of the bootstrap stream for the comparison called `label`.
 pub fn stream_seed(label: &str) -> u64 {
-    BOOTSTRAP_SEED ^ crate::scene::sim::fnv1a64(label.as_bytes())
+    BOOTSTRAP_SEED ^ crate::util::fnv1a64(label.as_bytes())
 }
 
 /// Stratified percentile bootstrap of the mean over all values of `strata` (each inner slice is

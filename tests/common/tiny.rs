@@ -1,7 +1,7 @@
 //! The tiny scene and configuration the end-to-end tests train on: 8 views at 48×36 of the
 //! built-in `blob` with coarse ground truth, and a few dozen steps of a tiny network.
 
-use neus_aug::scene::sim;
+use neus_aug::sim;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;

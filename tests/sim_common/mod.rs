@@ -1,7 +1,7 @@
 //! Helpers shared by the simulator's integration tests (`tests/sim_*.rs`).
 #![allow(dead_code)]
 
-use neus_aug::scene::sim::{builtin, Counters, SceneDescription, SimScene, ViewRender};
+use neus_aug::sim::{builtin, Counters, SceneDescription, SimScene, ViewRender};
 
 /// A built-in scene shrunk for tests: `w × h` pixels, `views` views, `spp` samples, ground truth
 /// at `spacing` mm.

@@ -364,18 +364,15 @@ pub fn generate_atomic(
     result
 }
 
-/// FNV-1a (64 bit) of `bytes`: a stable hash for cache folder names.
-pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
-    })
-}
-
 /// The cache folder name of a description: `<name>-<16 hex digits>` of the format version and
 /// the description's TOML.
 pub fn cache_key(desc: &SceneDescription) -> String {
     let text = format!("format {SIM_FORMAT_VERSION}\n{}", desc.to_toml());
-    format!("{}-{:016x}", desc.name, fnv1a64(text.as_bytes()))
+    format!(
+        "{}-{}",
+        desc.name,
+        crate::util::fnv1a64_hex(text.as_bytes())
+    )
 }
 
 /// The scene cache: `$NEUS_AUG_CACHE`, else `$XDG_CACHE_HOME/neus-aug/scenes`, else

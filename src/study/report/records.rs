@@ -1,0 +1,190 @@
+//! Reading the run folders: each finished run's `metrics.json`, checked against the plan, as a
+//! [`RunRecord`].
+
+use super::super::grid::{arm_name, scene_label};
+use super::super::plan::{
+    self, run_dir, run_state, RunSpec, RunState, StudyPlan, BASE_CONFIG_FILE,
+};
+use super::super::{io_err, StudyError};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The part of `metrics.json` a study reads: fields of `reconstruct::Metrics`, same names and
+/// types. Fields not named here are ignored, so files written by older or newer versions load.
+/// (Reading `reconstruct::Metrics` itself needs `Deserialize` on it and its parts, in
+/// `reconstruct/mod.rs`: left for the change that owns that file, issue 12.)
+#[derive(Deserialize)]
+struct MetricsIn {
+    config_hash: String,
+    chamfer: Option<ChamferIn>,
+    psnr_heldout: Option<f64>,
+    ssim_heldout: Option<f64>,
+    train: TrainIn,
+    timings_s: TimingsIn,
+}
+
+#[derive(Deserialize)]
+struct ChamferIn {
+    mean_d2s: f64,
+    mean_s2d: f64,
+    overall: f64,
+    chamfer_sum: f64,
+}
+
+#[derive(Deserialize)]
+struct TrainIn {
+    iterations: u64,
+    resumed_from: Option<u64>,
+}
+
+#[derive(Deserialize)]
+struct TimingsIn {
+    load: f64,
+    prepare: f64,
+    train: f64,
+    mesh: f64,
+    eval: f64,
+    render: f64,
+    total: f64,
+}
+
+/// One collected run: the plan's description and what its `metrics.json` says. Distances in
+/// world mm, times in seconds.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunRecord {
+    pub id: String,
+    pub scene: String,
+    pub condition: String,
+    /// `baseline`, `sia` or `dia`.
+    pub arm: String,
+    pub seed: u64,
+    pub preset: String,
+    pub views_fraction: Option<f64>,
+    pub degrade: Option<String>,
+    /// Accuracy + completeness (the paper's figure).
+    pub chamfer_sum: Option<f64>,
+    /// Accuracy: mean mesh → GT distance.
+    pub accuracy: Option<f64>,
+    /// Completeness: mean GT → mesh distance.
+    pub completeness: Option<f64>,
+    /// `(acc + comp) / 2` (DTUeval-python's "overall").
+    pub overall: Option<f64>,
+    pub psnr: Option<f64>,
+    pub ssim: Option<f64>,
+    pub iterations: u64,
+    /// The step training resumed from (an interrupted run, or a reused training).
+    pub resumed_from: Option<u64>,
+    /// The run started from another run's final checkpoint (mesh-only variant).
+    pub reused_training: bool,
+    pub time_load: f64,
+    pub time_prepare: f64,
+    /// Training time of this process (0 when the training was reused).
+    pub time_train: f64,
+    pub time_mesh: f64,
+    pub time_eval: f64,
+    pub time_render: f64,
+    pub time_total: f64,
+    /// Load + prepare + train + mesh, with the source run's training time for a reused training:
+    /// what producing this mesh costs, without scoring and held-out renders.
+    pub time_to_mesh: f64,
+}
+
+/// Reads every finished run of the study in `dir`, checking each against the plan.
+pub fn load_records(dir: &Path) -> Result<(StudyPlan, Vec<RunRecord>), StudyError> {
+    let plan = StudyPlan::load(dir)?;
+    let base = dir.join(BASE_CONFIG_FILE);
+    let base = plan.options.base_config.then_some(base.as_path());
+    if let Some(b) = base {
+        if !b.is_file() {
+            return Err(StudyError::Folder {
+                dir: dir.into(),
+                problem: format!("the plan uses {BASE_CONFIG_FILE}, which is missing"),
+            });
+        }
+    }
+    let mut records: Vec<RunRecord> = Vec::new();
+    for spec in &plan.runs {
+        let state = match run_state(dir, spec, None) {
+            Ok(s) => s,
+            Err(StudyError::RunMismatch { .. }) => {
+                // Name the differing keys when the planned configuration can be rebuilt.
+                let planned = plan::resolve_run(spec, &plan.options, base, dir)
+                    .ok()
+                    .filter(|c| plan::config_hash(c) == spec.config_hash)
+                    .map(|c| c.to_toml());
+                run_state(dir, spec, planned.as_deref())?
+            }
+            Err(e) => return Err(e),
+        };
+        if state != RunState::Done {
+            continue;
+        }
+        records.push(read_record(dir, spec)?);
+    }
+    // A reused training costs the source run's training time.
+    let train_of: std::collections::BTreeMap<String, f64> = records
+        .iter()
+        .map(|r| (r.id.clone(), r.time_train))
+        .collect();
+    for (r, spec) in records.iter_mut().filter_map(|r| {
+        let s = plan.run(&r.id).cloned();
+        s.map(|s| (r, s))
+    }) {
+        if let Some(src) = &spec.reuse_training_of {
+            if r.resumed_from == Some(r.iterations) {
+                r.reused_training = true;
+                if let Some(t) = train_of.get(src) {
+                    r.time_to_mesh += t;
+                }
+            }
+        }
+    }
+    Ok((plan, records))
+}
+
+fn read_record(dir: &Path, spec: &RunSpec) -> Result<RunRecord, StudyError> {
+    let path = run_dir(dir, &spec.id).join("metrics.json");
+    let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+    let m: MetricsIn = serde_json::from_str(&text).map_err(|e| StudyError::Parse {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    if m.config_hash != spec.training_hash {
+        return Err(StudyError::RunMismatch {
+            path: run_dir(dir, &spec.id),
+            problem: format!(
+                "its metrics.json was trained under configuration hash {}, the plan's is {}",
+                m.config_hash, spec.training_hash
+            ),
+        });
+    }
+    let t = &m.timings_s;
+    let c = m.chamfer.as_ref();
+    Ok(RunRecord {
+        id: spec.id.clone(),
+        scene: scene_label(&spec.scene),
+        condition: spec.condition.clone(),
+        arm: arm_name(spec.arm).into(),
+        seed: spec.seed,
+        preset: spec.preset.name().into(),
+        views_fraction: spec.views_fraction,
+        degrade: spec.degrade.clone(),
+        chamfer_sum: c.map(|c| c.chamfer_sum),
+        accuracy: c.map(|c| c.mean_d2s),
+        completeness: c.map(|c| c.mean_s2d),
+        overall: c.map(|c| c.overall),
+        psnr: m.psnr_heldout,
+        ssim: m.ssim_heldout,
+        iterations: m.train.iterations,
+        resumed_from: m.train.resumed_from,
+        reused_training: false,
+        time_load: t.load,
+        time_prepare: t.prepare,
+        time_train: t.train,
+        time_mesh: t.mesh,
+        time_eval: t.eval,
+        time_render: t.render,
+        time_total: t.total,
+        time_to_mesh: t.load + t.prepare + t.train + t.mesh,
+    })
+}
