@@ -9,7 +9,7 @@
 mod common;
 
 use common::tiny::neus_aug;
-use neus_aug::scene::sim;
+use neus_aug::sim;
 
 #[test]
 fn torus_hole_stays_open() {

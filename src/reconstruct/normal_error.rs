@@ -10,7 +10,7 @@
 //! left to Chamfer.
 
 use crate::mesh::TriMesh;
-use crate::scene::sim::setup::Tracer;
+use crate::sim::setup::Tracer;
 use crate::scene::Normalization;
 use glam::Vec3A;
 use obvhs::triangle::Triangle;
