@@ -10,8 +10,8 @@
 //! left to Chamfer.
 
 use crate::mesh::TriMesh;
-use crate::sim::setup::Tracer;
 use crate::scene::Normalization;
+use crate::sim::setup::Tracer;
 use glam::Vec3A;
 use obvhs::triangle::Triangle;
 
