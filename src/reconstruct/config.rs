@@ -6,6 +6,7 @@
 //! the resolved configuration is written to the run folder as `config.toml`.
 
 use crate::augment::{AugMode, AugmentConfig, Degradation};
+use crate::field::config::ProgressiveConfig;
 use crate::render::model::ModelConfig;
 use crate::train::TrainConfig;
 use serde::{Deserialize, Serialize};
@@ -269,6 +270,13 @@ impl Preset {
             Preset::Paper => {
                 data.downscale = 2;
                 data.render_downscale = 1;
+                // instant-nsr-pl `configs/neus-dtu.yaml` (ProgressiveBandHashGrid): 4 levels at
+                // first, one more every 1000 steps.
+                model.field.hash_grid.progressive = Some(ProgressiveConfig {
+                    start_level: 4,
+                    start_step: 0,
+                    update_steps: 1000,
+                });
             }
             Preset::Default => {
                 model.field.hash_grid.log2_hashmap_size = 17;
@@ -277,6 +285,14 @@ impl Preset {
                 model.render.max_train_num_rays = 4096;
                 model.render.occupancy.resolution = 64;
                 train.iterations = 8000;
+                // The same coarse-to-fine schedule as `paper`, on the preset's step count: every
+                // level active after 60 % of training (issue 13: cleaner topology, and inactive
+                // levels cost nothing).
+                model.field.hash_grid.progressive = Some(ProgressiveConfig {
+                    start_level: 4,
+                    start_step: 0,
+                    update_steps: 400,
+                });
                 train.lr.constant_steps = 2000;
                 train.lr.warmup_steps = 200;
                 train.checkpoint_every = 500;
@@ -291,6 +307,11 @@ impl Preset {
                 model.render.max_train_num_rays = 2048;
                 model.render.occupancy.resolution = 48;
                 train.iterations = 2000;
+                model.field.hash_grid.progressive = Some(ProgressiveConfig {
+                    start_level: 4,
+                    start_step: 0,
+                    update_steps: 100,
+                });
                 train.lr.constant_steps = 500;
                 train.lr.warmup_steps = 100;
                 train.checkpoint_every = 250;
