@@ -522,13 +522,13 @@ impl NeusModel {
         col_dims.push(3);
         let color_mlp = Mlp::new(col_dims, Activation::Relu);
         let mut layout = ParamLayout::default();
-        layout.push("hash_grid", vec![grid.n_entries, grid.n_features], 1.0);
-        layout.push("sdf_mlp", vec![sdf_mlp.n_params()], 1.0);
-        layout.push("color_mlp", vec![color_mlp.n_params()], 1.0);
-        layout.push("variance", vec![1], 0.1);
+        layout.push(HASH_GRID, vec![grid.n_entries, grid.n_features], 1.0);
+        layout.push(SDF_MLP, vec![sdf_mlp.n_params()], 1.0);
+        layout.push(COLOR_MLP, vec![color_mlp.n_params()], 1.0);
+        layout.push(VARIANCE, vec![1], 0.1);
         let a = &f.appearance;
         layout.push(
-            "appearance",
+            APPEARANCE,
             vec![a.n_codes, if a.n_codes > 0 { a.code_dim } else { 0 }],
             1.0,
         );
@@ -574,7 +574,7 @@ impl NeusModel {
 
     /// `inv_s` of a parameter buffer.
     pub fn inv_s(&self, params: &[f32]) -> f32 {
-        let v = params[self.layout.groups[3].offset];
+        let v = params[group(&self.layout, VARIANCE).start];
         inv_s_from_variance(v).0
     }
 
@@ -843,7 +843,7 @@ impl NeusModel {
         }
         self.workspace.put(ws);
         // Variance gradient: the per-sample ∂α/∂inv_s summed in f64, chained through exp(10v).
-        let var_off = self.layout.groups[3].offset;
+        let var_off = group(&self.layout, VARIANCE).start;
         grads[var_off] += T::from_f64(sums.d_inv_s) * d_inv_s_dv;
         times.reduce = t1.elapsed().as_secs_f64();
         let l = sched.loss;
@@ -1419,24 +1419,40 @@ fn tap_rows(i: usize, n: usize, d: usize) -> [usize; 7] {
     ]
 }
 
+/// Names of the parameter groups, in the order [`NeusModel::new`] lays them out.
+const HASH_GRID: &str = "hash_grid";
+const SDF_MLP: &str = "sdf_mlp";
+const COLOR_MLP: &str = "color_mlp";
+const VARIANCE: &str = "variance";
+const APPEARANCE: &str = "appearance";
+
+/// The flat index range of the group `name` (every model layout has all five groups).
+fn group(layout: &ParamLayout, name: &str) -> std::ops::Range<usize> {
+    layout
+        .group(name)
+        .unwrap_or_else(|| panic!("parameter group '{name}' missing from the layout"))
+        .range()
+}
+
 fn split<'a, T>(layout: &ParamLayout, p: &'a [T]) -> Groups<'a, T> {
-    let g = &layout.groups;
     Groups {
-        hash: &p[g[0].range()],
-        sdf: &p[g[1].range()],
-        color: &p[g[2].range()],
-        var: &p[g[3].range()],
-        app: &p[g[4].range()],
+        hash: &p[group(layout, HASH_GRID)],
+        sdf: &p[group(layout, SDF_MLP)],
+        color: &p[group(layout, COLOR_MLP)],
+        var: &p[group(layout, VARIANCE)],
+        app: &p[group(layout, APPEARANCE)],
     }
 }
 
 fn split_mut<'a, T>(layout: &ParamLayout, p: &'a mut [T]) -> GroupsMut<'a, T> {
-    let g = &layout.groups;
-    let (hash, rest) = p.split_at_mut(g[0].len);
-    let (sdf, rest) = rest.split_at_mut(g[1].len);
-    let (color, rest) = rest.split_at_mut(g[2].len);
-    let (var, rest) = rest.split_at_mut(g[3].len);
-    let (app, _) = rest.split_at_mut(g[4].len);
+    // The groups are contiguous in layout order: cut the buffer at each group's end.
+    let len = |name| group(layout, name).len();
+    debug_assert_eq!(group(layout, SDF_MLP).start, len(HASH_GRID));
+    let (hash, rest) = p.split_at_mut(len(HASH_GRID));
+    let (sdf, rest) = rest.split_at_mut(len(SDF_MLP));
+    let (color, rest) = rest.split_at_mut(len(COLOR_MLP));
+    let (var, rest) = rest.split_at_mut(len(VARIANCE));
+    let (app, _) = rest.split_at_mut(len(APPEARANCE));
     GroupsMut {
         hash,
         sdf,
