@@ -9,6 +9,8 @@ pub mod sim;
 pub mod summary;
 
 pub use camera::{Camera, CameraError};
-pub use dtu::{write_scene, LoadOptions, Normalization, Scene, SceneError, View, ViewOut};
+pub use dtu::{
+    write_cameras, write_scene, LoadOptions, Normalization, Scene, SceneError, View, ViewOut,
+};
 pub use image::{GrayImage, ImageError, RgbImage};
 pub use summary::SceneSummary;
