@@ -44,7 +44,7 @@ impl RoiArgs {
 pub enum ImportSource {
     /// A COLMAP sparse model (text or binary; e.g. <project>/sparse/0). Cameras must be PINHOLE,
     /// SIMPLE_PINHOLE, or SIMPLE_RADIAL/RADIAL/OPENCV with zero distortion: undistort with
-    /// `colmap image_undistorter` first otherwise. Images must be PNG.
+    /// `colmap image_undistorter` first otherwise. Images may be PNG or JPEG.
     Colmap {
         /// The model folder holding cameras, images and points3D (.txt or .bin).
         sparse: PathBuf,
@@ -61,7 +61,7 @@ pub enum ImportSource {
         roi: RoiArgs,
     },
     /// An instant-ngp / nerfstudio transforms.json (OpenGL camera-to-world poses; fl_x/fl_y/cx/cy
-    /// or camera_angle_x, shared or per frame). Images must be PNG.
+    /// or camera_angle_x, shared or per frame). Images may be PNG or JPEG.
     Transforms {
         /// The transforms.json; file paths are relative to its folder.
         json: PathBuf,

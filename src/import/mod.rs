@@ -8,7 +8,8 @@
 //! [`write_imported_scene`] writes the standard layout of [`crate::scene::dtu`]:
 //!
 //! ```text
-//! <out>/image/000000.png ...   the views, sorted by image name, converted to 8-bit RGB PNG
+//! <out>/image/000000.png ...   the views as 8-bit RGB PNG (COLMAP: sorted by image name;
+//!                              transforms.json: frame order)
 //! <out>/mask/000.png ...       masks, when a mask folder or mask paths were given
 //! <out>/cameras_sphere.npz     world_mat_i = K·[R | −R·C] (source world frame), and
 //!                              scale_mat_i = diag(r, r, r, 1) + ROI centre
@@ -20,8 +21,8 @@
 //! similarity it chooses is the `scale_mat` that maps the region of interest (centre `c`, radius
 //! `r`) onto the unit sphere, `X_world = r·X_norm + c`, as NeuS's `preprocess_custom_data` does.
 //!
-//! Images are read and written as PNG only (the `image` crate is built with its PNG codec);
-//! convert JPEGs first (e.g. `mogrify -format png *.jpg`).
+//! Images are read as PNG or JPEG (the `image` crate's `png` and `jpeg` codecs; the format is
+//! guessed from the file's bytes) and written as 8-bit PNG; masks likewise (first channel).
 
 pub mod colmap;
 pub mod colmap_binary;

@@ -394,6 +394,31 @@ mod tests {
     }
 
     #[test]
+    fn jpeg_frames_without_extension_become_png_scenes() {
+        let dir = tempfile::tempdir().unwrap();
+        let (w, h) = (16u32, 12u32);
+        let pixels = image::RgbImage::from_fn(w, h, |x, y| {
+            image::Rgb([(x * 15) as u8, (y * 20) as u8, 90])
+        });
+        pixels.save(dir.path().join("f0.jpg")).unwrap();
+        pixels.save(dir.path().join("f1.jpg")).unwrap();
+        let text = r#"{"fl_x": 20, "frames": [
+            {"file_path": "f0", "transform_matrix": [[1,0,0,0],[0,1,0,0],[0,0,1,5],[0,0,0,1]]},
+            {"file_path": "f1", "transform_matrix": [[0,0,1,5],[1,0,0,0],[0,1,0,0],[0,0,0,1]]}]}"#;
+        let json = dir.path().join("transforms.json");
+        std::fs::write(&json, text).unwrap();
+        let (views, roi) = import(&json, None).unwrap();
+        assert_eq!(views[0].image, dir.path().join("f0.jpg"));
+        let out = dir.path().join("scene");
+        crate::import::write_imported_scene(&out, &views, &roi, "transforms", &json).unwrap();
+        let png = RgbImage::load(&out.join("image/000001.png")).unwrap();
+        let jpg = RgbImage::load(&dir.path().join("f1.jpg")).unwrap();
+        assert_eq!((png.width, png.height), (16, 12));
+        // The PNG holds the decoded JPEG's 8-bit values exactly.
+        assert_eq!(png, jpg);
+    }
+
+    #[test]
     fn bad_files_name_the_problem() {
         let dir = tempfile::tempdir().unwrap();
         write_png(&dir.path().join("a.png"), 4, 4);
