@@ -338,6 +338,11 @@ fn cli_synth_export_then_import_both_formats() {
     assert!(camera_difference(&world_cameras(&sa), &truth) < 1e-9);
     assert!(camera_difference(&world_cameras(&sb), &truth) < 1e-9);
     assert_eq!(sb.normalization, sa.normalization);
+    let inspect = run(&["inspect", a.to_str().unwrap()]);
+    assert!(
+        inspect.contains("imported     from colmap-text") && inspect.contains("sparse points"),
+        "{inspect}"
+    );
     // A bad flag value is refused with its name.
     let out = common::tiny::neus_aug()
         .args([
