@@ -29,5 +29,30 @@ pub fn run(args: InspectArgs) -> anyhow::Result<()> {
         }
         None => print!("{}", summary.to_text()),
     }
+    if args.json.as_deref().is_none_or(|p| p.as_os_str() != "-") {
+        print_import_record(&args.scene.join("import.json"));
+    }
     Ok(())
+}
+
+/// What `neus-aug import` chose, from the scene's `import.json` (absent for other scenes).
+fn print_import_record(path: &std::path::Path) {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return;
+    };
+    let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
+        println!("imported     ({} does not parse)", path.display());
+        return;
+    };
+    println!(
+        "imported     from {} {}",
+        v["source_format"].as_str().unwrap_or("?"),
+        v["source"].as_str().unwrap_or("?")
+    );
+    println!(
+        "region       centre {} radius {} (source units): {}",
+        v["roi"]["roi"]["center"],
+        v["roi"]["roi"]["radius"],
+        v["roi"]["method"].as_str().unwrap_or("?")
+    );
 }

@@ -4,6 +4,7 @@ use clap::{Parser, Subcommand};
 
 mod augment;
 mod eval;
+mod import;
 mod inspect;
 mod mcubes;
 mod reconstruct;
@@ -26,6 +27,8 @@ pub enum Command {
     Eval(dtu_eval::cli::EvalArgs),
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect(inspect::InspectArgs),
+    /// Import a COLMAP model or a transforms.json into a NeuS scene folder.
+    Import(import::ImportArgs),
     /// Render a synthetic scene into the DTU layout with its ground truth.
     Synth(synth::SynthArgs),
     /// The paper's experiment grids (table2, reduced, degraded, pareto, ...) with seeds,
@@ -44,6 +47,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Reconstruct(args) => reconstruct::run(*args),
         Command::Eval(args) => eval::run(&args),
         Command::Inspect(args) => inspect::run(args),
+        Command::Import(args) => import::run(args),
         Command::Synth(args) => synth::run(args),
         Command::Study(args) => study::run(*args),
         Command::Augment(args) => augment::run(args),

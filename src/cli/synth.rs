@@ -1,6 +1,7 @@
 //! `neus-aug synth`: render a synthetic scene into the DTU layout, ground truth included.
 
 use anyhow::{bail, Context};
+use neus_aug::import::export;
 use neus_aug::sim::{self, GenerateOptions, SceneDescription};
 use std::path::{Path, PathBuf};
 
@@ -52,6 +53,20 @@ pub struct SynthArgs {
     /// No progress output.
     #[arg(long)]
     pub quiet: bool,
+    /// Also write the true cameras for the importers: `colmap` writes DIR/colmap/sparse/0/*.txt
+    /// (PINHOLE, ground-truth points as points3D; import with `--images DIR/image`),
+    /// `transforms` writes DIR/transforms.json. Repeatable.
+    #[arg(long, value_enum)]
+    pub export: Vec<ExportFormat>,
+}
+
+/// Camera formats `synth --export` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExportFormat {
+    /// COLMAP text model in DIR/colmap/sparse/0.
+    Colmap,
+    /// instant-ngp / nerfstudio DIR/transforms.json.
+    Transforms,
 }
 
 /// Most views `synth` renders (`--views` or the scene's `rig.views`): DTU has 49 or 64, and each
@@ -195,6 +210,14 @@ pub fn run(args: SynthArgs) -> anyhow::Result<()> {
             e.mean_s2d
         ),
         Err(e) => println!("floor: not computed ({e:#})"),
+    }
+    for format in &args.export {
+        let written = match format {
+            ExportFormat::Colmap => export::export_colmap(&out, &out.join("colmap")),
+            ExportFormat::Transforms => export::export_transforms(&out, &out),
+        }
+        .with_context(|| format!("cannot export {format:?} cameras of {}", out.display()))?;
+        println!("exported {format:?} cameras: {}", written.display());
     }
     Ok(())
 }

@@ -416,15 +416,28 @@ pub fn write_scene(
         }
         Ok::<(), SceneError>(())
     })?;
+    let cameras: Vec<&Camera> = views.iter().map(|v| v.camera).collect();
+    write_cameras(root, &cameras, normalization)
+}
+
+/// Writes only `cameras_sphere.npz` into `root` (which must exist): for each camera `i`
+/// (world coordinates), `world_mat_i = K·[R | −R·C]` with a `[0,0,0,1]` row, its inverse, and the
+/// shared `scale_mat_i = normalization.matrix()` and its inverse. [`write_scene`] calls it after
+/// writing the images; importers that stream images call it directly.
+pub fn write_cameras(
+    root: &Path,
+    cameras: &[&Camera],
+    normalization: &Normalization,
+) -> Result<(), SceneError> {
     let scale = normalization.matrix();
     let scale_inv = scale.try_inverse().expect("similarity with s > 0");
     let flat = |m: &Matrix4<f64>| -> Vec<f64> { m.transpose().as_slice().to_vec() };
     let mut arrays = Vec::new();
-    for (i, v) in views.iter().enumerate() {
+    for (i, camera) in cameras.iter().enumerate() {
         let mut world = Matrix4::identity();
         world
             .fixed_view_mut::<3, 4>(0, 0)
-            .copy_from(&v.camera.projection());
+            .copy_from(&camera.projection());
         let world_inv = world.try_inverse().unwrap_or_else(Matrix4::zeros);
         arrays.push((format!("world_mat_{i}"), vec![4, 4], flat(&world)));
         arrays.push((format!("world_mat_inv_{i}"), vec![4, 4], flat(&world_inv)));

@@ -8,6 +8,8 @@ pub mod npz;
 pub mod summary;
 
 pub use camera::{Camera, CameraError};
-pub use dtu::{write_scene, LoadOptions, Normalization, Scene, SceneError, View, ViewOut};
+pub use dtu::{
+    write_cameras, write_scene, LoadOptions, Normalization, Scene, SceneError, View, ViewOut,
+};
 pub use image::{GrayImage, ImageError, RgbImage};
 pub use summary::SceneSummary;

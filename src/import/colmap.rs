@@ -1,0 +1,803 @@
+//! COLMAP sparse models (`sparse/0/{cameras,images,points3D}.{txt,bin}`): reading both forms,
+//! writing both (the text form for `synth --export colmap`, the binary one for tests), and
+//! turning a model into [`ImportedView`]s.
+//!
+//! Conventions (COLMAP documentation, "Output Format" and "Camera Models"; `src/colmap/sensor/
+//! models.h`):
+//! - `images.txt` stores per image the **world-to-camera** rotation as a unit quaternion
+//!   `QW QX QY QZ` (Hamilton, scalar first) and translation `TX TY TZ`: `x_cam = R·X + t`, so the
+//!   camera centre is `C = −Rᵀ·t`. The camera frame is OpenCV's (x right, y down, z forward),
+//!   the same as [`Camera`]'s, so no axis flips.
+//! - Pixel coordinates put the centre of the top-left pixel at (0.5, 0.5) (COLMAP's feature
+//!   coordinates; see nerfstudio-project/gsplat PR 151), the convention of [`Camera`], so `cx, cy`
+//!   carry over unchanged.
+//! - Camera models and parameters: SIMPLE_PINHOLE (id 0) `f cx cy`; PINHOLE (1) `fx fy cx cy`;
+//!   SIMPLE_RADIAL (2) `f cx cy k`; RADIAL (3) `f cx cy k1 k2`; OPENCV (4)
+//!   `fx fy cx cy k1 k2 p1 p2`.
+//! - Binary files are little endian: `cameras.bin` = u64 count, then per camera i32 id, i32
+//!   model id, u64 width, u64 height, f64 params; `images.bin` = u64 count, then per image i32 id,
+//!   f64 qvec[4], f64 tvec[3], i32 camera id, NUL-terminated name, u64 number of 2-D points and
+//!   per point f64 x, f64 y, i64 point3D id (−1 = none); `points3D.bin` = u64 count, then per
+//!   point u64 id, f64 xyz[3], u8 rgb[3], f64 error, u64 track length and per element i32 image
+//!   id, i32 2-D point index (COLMAP `scripts/python/read_write_model.py`).
+//!
+//! **Distortion** (a choice, documented): neus-aug's rays are pinhole rays, so a camera of a
+//! distorted model (SIMPLE_RADIAL, RADIAL, OPENCV) is imported only when all its distortion
+//! coefficients are exactly zero; otherwise the import stops with an error that names the camera
+//! and model and gives the `colmap image_undistorter` command, whose output (PINHOLE cameras and
+//! undistorted images) imports directly.
+
+use super::colmap_binary;
+pub use super::colmap_binary::write_binary;
+use super::{find_mask, io_err, roi_from_points, ImportError, ImportedView, Roi, RoiChoice};
+use crate::scene::Camera;
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The camera models neus-aug knows by name (all COLMAP models, for the error messages), with
+/// their COLMAP ids and parameter counts.
+pub(crate) const MODELS: [(&str, i32, usize); 11] = [
+    ("SIMPLE_PINHOLE", 0, 3),
+    ("PINHOLE", 1, 4),
+    ("SIMPLE_RADIAL", 2, 4),
+    ("RADIAL", 3, 5),
+    ("OPENCV", 4, 8),
+    ("OPENCV_FISHEYE", 5, 8),
+    ("FULL_OPENCV", 6, 12),
+    ("FOV", 7, 5),
+    ("SIMPLE_RADIAL_FISHEYE", 8, 4),
+    ("RADIAL_FISHEYE", 9, 5),
+    ("THIN_PRISM_FISHEYE", 10, 12),
+];
+
+/// Models whose parameters are `f cx cy ...` (one focal length) and that neus-aug imports.
+const SUPPORTED: [&str; 5] = [
+    "SIMPLE_PINHOLE",
+    "PINHOLE",
+    "SIMPLE_RADIAL",
+    "RADIAL",
+    "OPENCV",
+];
+
+/// One camera (intrinsics shared by some images).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColmapCamera {
+    /// COLMAP's camera id.
+    pub id: u32,
+    /// Model name, e.g. `PINHOLE`.
+    pub model: String,
+    /// Image width in pixels.
+    pub width: u64,
+    /// Image height in pixels.
+    pub height: u64,
+    /// Model parameters in COLMAP's order (see the module doc).
+    pub params: Vec<f64>,
+}
+
+/// One registered image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColmapImage {
+    /// COLMAP's image id.
+    pub id: u32,
+    /// World-to-camera rotation quaternion `[qw, qx, qy, qz]`.
+    pub qvec: [f64; 4],
+    /// World-to-camera translation `t` (`x_cam = R·X + t`).
+    pub tvec: [f64; 3],
+    /// The camera it uses.
+    pub camera_id: u32,
+    /// File name relative to the image folder.
+    pub name: String,
+    /// Observations `(x, y, point3D id or −1)` in pixels.
+    pub points2d: Vec<(f64, f64, i64)>,
+}
+
+/// One triangulated point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ColmapPoint {
+    /// COLMAP's point id.
+    pub id: u64,
+    /// Position (world frame).
+    pub xyz: [f64; 3],
+    /// Colour.
+    pub rgb: [u8; 3],
+    /// Mean reprojection error (pixels).
+    pub error: f64,
+    /// Track: `(image id, index of the 2-D point in that image)`.
+    pub track: Vec<(u32, u32)>,
+}
+
+/// A sparse model.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct ColmapModel {
+    /// Cameras by id.
+    pub cameras: BTreeMap<u32, ColmapCamera>,
+    /// Images in file order.
+    pub images: Vec<ColmapImage>,
+    /// Points in file order.
+    pub points: Vec<ColmapPoint>,
+}
+
+/// Which form a model folder holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelFormat {
+    /// `*.txt`.
+    Text,
+    /// `*.bin`.
+    Binary,
+}
+
+pub(crate) fn parse_err(file: &Path, message: String) -> ImportError {
+    ImportError::Parse {
+        file: file.into(),
+        message,
+    }
+}
+
+/// Which form `dir` holds: binary when `cameras.bin` exists, else text when `cameras.txt`
+/// exists, else an error naming both.
+pub fn detect_format(dir: &Path) -> Result<ModelFormat, ImportError> {
+    if dir.join("cameras.bin").is_file() {
+        Ok(ModelFormat::Binary)
+    } else if dir.join("cameras.txt").is_file() {
+        Ok(ModelFormat::Text)
+    } else {
+        Err(ImportError::MissingFile {
+            path: dir.join("cameras.txt"),
+            what: format!(
+                "no COLMAP model in {} (neither cameras.txt nor cameras.bin; a model is usually \
+                 in <project>/sparse/0)",
+                dir.display()
+            ),
+        })
+    }
+}
+
+/// Reads the model in `dir`, text or binary (see [`detect_format`]).
+pub fn read_model(dir: &Path) -> Result<(ColmapModel, ModelFormat), ImportError> {
+    let format = detect_format(dir)?;
+    let ext = match format {
+        ModelFormat::Text => "txt",
+        ModelFormat::Binary => "bin",
+    };
+    let mut files = Vec::new();
+    for name in ["cameras", "images", "points3D"] {
+        let path = dir.join(format!("{name}.{ext}"));
+        let bytes = std::fs::read(&path).map_err(|source| {
+            if source.kind() == std::io::ErrorKind::NotFound {
+                ImportError::MissingFile {
+                    path: path.clone(),
+                    what: format!("a COLMAP {ext} model needs cameras, images and points3D"),
+                }
+            } else {
+                ImportError::Io {
+                    path: path.clone(),
+                    source,
+                }
+            }
+        })?;
+        files.push((path, bytes));
+    }
+    let model = match format {
+        ModelFormat::Text => {
+            let text = |i: usize| {
+                String::from_utf8(files[i].1.clone())
+                    .map_err(|_| parse_err(&files[i].0, "is not UTF-8 text".into()))
+            };
+            ColmapModel {
+                cameras: parse_cameras_text(&files[0].0, &text(0)?)?,
+                images: parse_images_text(&files[1].0, &text(1)?)?,
+                points: parse_points_text(&files[2].0, &text(2)?)?,
+            }
+        }
+        ModelFormat::Binary => ColmapModel {
+            cameras: colmap_binary::parse_cameras_bin(&files[0].0, &files[0].1)?,
+            images: colmap_binary::parse_images_bin(&files[1].0, &files[1].1)?,
+            points: colmap_binary::parse_points_bin(&files[2].0, &files[2].1)?,
+        },
+    };
+    Ok((model, format))
+}
+
+/// Non-comment lines with their 1-based line numbers (`#` starts a comment line).
+fn data_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.starts_with('#'))
+}
+
+fn num<T: std::str::FromStr>(
+    file: &Path,
+    line: usize,
+    what: &str,
+    s: &str,
+) -> Result<T, ImportError> {
+    s.parse()
+        .map_err(|_| parse_err(file, format!("line {line}: {what} '{s}' is not a number")))
+}
+
+fn parse_cameras_text(file: &Path, text: &str) -> Result<BTreeMap<u32, ColmapCamera>, ImportError> {
+    let mut cams = BTreeMap::new();
+    for (line, l) in data_lines(text).filter(|(_, l)| !l.is_empty()) {
+        let t: Vec<&str> = l.split_whitespace().collect();
+        if t.len() < 4 {
+            return Err(parse_err(
+                file,
+                format!("line {line}: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]"),
+            ));
+        }
+        let cam = ColmapCamera {
+            id: num(file, line, "camera id", t[0])?,
+            model: t[1].to_string(),
+            width: num(file, line, "width", t[2])?,
+            height: num(file, line, "height", t[3])?,
+            params: t[4..]
+                .iter()
+                .map(|s| num(file, line, "parameter", s))
+                .collect::<Result<_, _>>()?,
+        };
+        cams.insert(cam.id, cam);
+    }
+    Ok(cams)
+}
+
+fn parse_images_text(file: &Path, text: &str) -> Result<Vec<ColmapImage>, ImportError> {
+    // Two lines per image; the second (2-D points) may be empty, so only comments are skipped,
+    // and blank lines only where an image line is expected.
+    let mut images = Vec::new();
+    let mut lines = data_lines(text).peekable();
+    while let Some((line, l)) = lines.next() {
+        if l.is_empty() {
+            continue;
+        }
+        let t: Vec<&str> = l.split_whitespace().collect();
+        if t.len() < 10 {
+            return Err(parse_err(
+                file,
+                format!("line {line}: expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME"),
+            ));
+        }
+        let f = |i: usize, what: &str| num::<f64>(file, line, what, t[i]);
+        let mut points2d = Vec::new();
+        if let Some((pline, p)) = lines.next() {
+            let pt: Vec<&str> = p.split_whitespace().collect();
+            if !pt.len().is_multiple_of(3) {
+                return Err(parse_err(
+                    file,
+                    format!("line {pline}: 2-D points come in triples X Y POINT3D_ID"),
+                ));
+            }
+            for c in pt.chunks(3) {
+                points2d.push((
+                    num(file, pline, "x", c[0])?,
+                    num(file, pline, "y", c[1])?,
+                    num(file, pline, "point3D id", c[2])?,
+                ));
+            }
+        }
+        images.push(ColmapImage {
+            id: num(file, line, "image id", t[0])?,
+            qvec: [f(1, "qw")?, f(2, "qx")?, f(3, "qy")?, f(4, "qz")?],
+            tvec: [f(5, "tx")?, f(6, "ty")?, f(7, "tz")?],
+            camera_id: num(file, line, "camera id", t[8])?,
+            name: t[9..].join(" "),
+            points2d,
+        });
+    }
+    Ok(images)
+}
+
+fn parse_points_text(file: &Path, text: &str) -> Result<Vec<ColmapPoint>, ImportError> {
+    let mut points = Vec::new();
+    for (line, l) in data_lines(text).filter(|(_, l)| !l.is_empty()) {
+        let t: Vec<&str> = l.split_whitespace().collect();
+        if t.len() < 8 || !(t.len() - 8).is_multiple_of(2) {
+            return Err(parse_err(
+                file,
+                format!("line {line}: expected POINT3D_ID X Y Z R G B ERROR TRACK[] (pairs)"),
+            ));
+        }
+        let track = t[8..]
+            .chunks(2)
+            .map(|c| {
+                Ok((
+                    num(file, line, "image id", c[0])?,
+                    num(file, line, "2-D point index", c[1])?,
+                ))
+            })
+            .collect::<Result<_, ImportError>>()?;
+        points.push(ColmapPoint {
+            id: num(file, line, "point id", t[0])?,
+            xyz: [
+                num(file, line, "x", t[1])?,
+                num(file, line, "y", t[2])?,
+                num(file, line, "z", t[3])?,
+            ],
+            rgb: [
+                num(file, line, "r", t[4])?,
+                num(file, line, "g", t[5])?,
+                num(file, line, "b", t[6])?,
+            ],
+            error: num(file, line, "error", t[7])?,
+            track,
+        });
+    }
+    Ok(points)
+}
+
+/// Writes the model as `cameras.txt`, `images.txt`, `points3D.txt` in `dir` (created). Numbers
+/// are written in Rust's shortest round-trip form, so reading back gives the same bits.
+pub fn write_text(model: &ColmapModel, dir: &Path) -> Result<(), ImportError> {
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let mut cams = String::from(
+        "# Camera list with one line of data per camera:\n\
+         #   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n",
+    );
+    let _ = writeln!(cams, "# Number of cameras: {}", model.cameras.len());
+    for c in model.cameras.values() {
+        let _ = write!(cams, "{} {} {} {}", c.id, c.model, c.width, c.height);
+        for p in &c.params {
+            let _ = write!(cams, " {p:?}");
+        }
+        cams.push('\n');
+    }
+    let mut imgs = String::from(
+        "# Image list with two lines of data per image:\n\
+         #   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n\
+         #   POINTS2D[] as (X, Y, POINT3D_ID)\n",
+    );
+    let _ = writeln!(imgs, "# Number of images: {}", model.images.len());
+    for im in &model.images {
+        let [qw, qx, qy, qz] = im.qvec;
+        let [tx, ty, tz] = im.tvec;
+        let _ = writeln!(
+            imgs,
+            "{} {qw:?} {qx:?} {qy:?} {qz:?} {tx:?} {ty:?} {tz:?} {} {}",
+            im.id, im.camera_id, im.name
+        );
+        let obs: Vec<String> = im
+            .points2d
+            .iter()
+            .map(|(x, y, id)| format!("{x:?} {y:?} {id}"))
+            .collect();
+        imgs.push_str(&obs.join(" "));
+        imgs.push('\n');
+    }
+    let mut pts = String::from(
+        "# 3D point list with one line of data per point:\n\
+         #   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n",
+    );
+    let _ = writeln!(pts, "# Number of points: {}", model.points.len());
+    for p in &model.points {
+        let [x, y, z] = p.xyz;
+        let [r, g, b] = p.rgb;
+        let _ = write!(pts, "{} {x:?} {y:?} {z:?} {r} {g} {b} {:?}", p.id, p.error);
+        for (i, k) in &p.track {
+            let _ = write!(pts, " {i} {k}");
+        }
+        pts.push('\n');
+    }
+    for (name, text) in [
+        ("cameras.txt", cams),
+        ("images.txt", imgs),
+        ("points3D.txt", pts),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(io_err(&path))?;
+    }
+    Ok(())
+}
+
+pub(crate) fn supported_hint() -> String {
+    format!(
+        "supported: {}; convert with `colmap image_undistorter`, which writes PINHOLE cameras",
+        SUPPORTED.join(", ")
+    )
+}
+
+/// The intrinsics `K` of a camera (module doc for the models). Distorted models are accepted
+/// only with all distortion coefficients zero (module doc).
+pub fn intrinsics(cam: &ColmapCamera, file: &Path) -> Result<Matrix3<f64>, ImportError> {
+    let unsupported = |hint: String| ImportError::UnsupportedModel {
+        file: file.into(),
+        camera_id: cam.id as u64,
+        model: cam.model.clone(),
+        hint,
+    };
+    let Some(&(_, _, n)) = MODELS.iter().find(|m| m.0 == cam.model) else {
+        return Err(unsupported(format!(
+            "not a COLMAP model name; {}",
+            supported_hint()
+        )));
+    };
+    if !SUPPORTED.contains(&cam.model.as_str()) {
+        return Err(unsupported(supported_hint()));
+    }
+    if cam.params.len() != n {
+        return Err(parse_err(
+            file,
+            format!(
+                "camera {} ({}) has {} parameters, expected {n}",
+                cam.id,
+                cam.model,
+                cam.params.len()
+            ),
+        ));
+    }
+    let p = &cam.params;
+    let (fx, fy, cx, cy, distortion) = match cam.model.as_str() {
+        "SIMPLE_PINHOLE" => (p[0], p[0], p[1], p[2], &p[3..]),
+        "PINHOLE" => (p[0], p[1], p[2], p[3], &p[4..]),
+        "SIMPLE_RADIAL" | "RADIAL" => (p[0], p[0], p[1], p[2], &p[3..]),
+        _ => (p[0], p[1], p[2], p[3], &p[4..]),
+    };
+    if distortion.iter().any(|&d| d != 0.0) {
+        return Err(unsupported(format!(
+            "its distortion coefficients {distortion:?} are not zero and neus-aug models pinhole \
+             rays only: undistort first with `colmap image_undistorter --image_path IMAGES \
+             --input_path SPARSE --output_path UNDIST`, then import UNDIST/sparse with --images \
+             UNDIST/images"
+        )));
+    }
+    let finite = fx.is_finite() && fy.is_finite() && cx.is_finite() && cy.is_finite();
+    if !(finite && fx > 0.0 && fy > 0.0) {
+        return Err(parse_err(
+            file,
+            format!(
+                "camera {}: focal lengths must be positive and finite, got {p:?}",
+                cam.id
+            ),
+        ));
+    }
+    Ok(Matrix3::new(fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0))
+}
+
+/// World-to-camera rotation of a COLMAP quaternion `[qw, qx, qy, qz]` (normalised first).
+pub fn rotation(qvec: [f64; 4]) -> Option<Matrix3<f64>> {
+    let q = Quaternion::new(qvec[0], qvec[1], qvec[2], qvec[3]);
+    let n = q.norm();
+    if !(n.is_finite() && n > 1e-12) {
+        return None;
+    }
+    Some(
+        UnitQuaternion::from_quaternion(q)
+            .to_rotation_matrix()
+            .into_inner(),
+    )
+}
+
+/// The COLMAP quaternion `[qw, qx, qy, qz]` (`qw ≥ 0`) of a rotation matrix.
+pub fn quaternion(r: &Matrix3<f64>) -> [f64; 4] {
+    let q = UnitQuaternion::from_matrix(r);
+    let s = if q.w < 0.0 { -1.0 } else { 1.0 };
+    [s * q.w, s * q.i, s * q.j, s * q.k]
+}
+
+/// Options of [`import`].
+#[derive(Clone, Debug, Default)]
+pub struct ColmapImport {
+    /// The model folder (`sparse/0`).
+    pub model_dir: PathBuf,
+    /// The image folder the model's image names are relative to.
+    pub images: PathBuf,
+    /// Optional mask folder (see [`find_mask`] for how masks are matched).
+    pub masks: Option<PathBuf>,
+    /// Region of interest override; `None` chooses it from the sparse points
+    /// ([`roi_from_points`]).
+    pub roi: Option<Roi>,
+}
+
+/// Reads the model and turns it into views sorted by image name plus a region of interest.
+/// Returns the views, the ROI choice and the model's form.
+pub fn import(
+    opts: &ColmapImport,
+) -> Result<(Vec<ImportedView>, RoiChoice, ModelFormat), ImportError> {
+    let (model, format) = read_model(&opts.model_dir)?;
+    let ext = if format == ModelFormat::Binary {
+        "bin"
+    } else {
+        "txt"
+    };
+    let cameras_file = opts.model_dir.join(format!("cameras.{ext}"));
+    let images_file = opts.model_dir.join(format!("images.{ext}"));
+    if model.images.is_empty() {
+        return Err(ImportError::NoViews(images_file));
+    }
+    if !opts.images.is_dir() {
+        return Err(ImportError::MissingFile {
+            path: opts.images.clone(),
+            what: "the image folder given by --images".into(),
+        });
+    }
+    let mut images: Vec<&ColmapImage> = model.images.iter().collect();
+    images.sort_by(|a, b| a.name.cmp(&b.name));
+    let mut views = Vec::with_capacity(images.len());
+    for im in images {
+        let cam = model.cameras.get(&im.camera_id).ok_or_else(|| {
+            parse_err(
+                &images_file,
+                format!(
+                    "image '{}' uses camera {}, which {} does not define",
+                    im.name,
+                    im.camera_id,
+                    cameras_file.display()
+                ),
+            )
+        })?;
+        let k = intrinsics(cam, &cameras_file)?;
+        let r = rotation(im.qvec).ok_or_else(|| {
+            parse_err(
+                &images_file,
+                format!(
+                    "image '{}': quaternion {:?} is not a rotation",
+                    im.name, im.qvec
+                ),
+            )
+        })?;
+        let t = Vector3::from(im.tvec);
+        if !t.iter().all(|v| v.is_finite()) {
+            return Err(parse_err(
+                &images_file,
+                format!(
+                    "image '{}': translation {:?} is not finite",
+                    im.name, im.tvec
+                ),
+            ));
+        }
+        let (Ok(width), Ok(height)) = (u32::try_from(cam.width), u32::try_from(cam.height)) else {
+            return Err(parse_err(
+                &cameras_file,
+                format!(
+                    "camera {}: size {}×{} is too large",
+                    cam.id, cam.width, cam.height
+                ),
+            ));
+        };
+        let image = opts.images.join(&im.name);
+        if !image.is_file() {
+            return Err(ImportError::MissingImage {
+                name: im.name.clone(),
+                model: images_file.clone(),
+                path: image,
+            });
+        }
+        let mask = match &opts.masks {
+            Some(dir) => {
+                Some(
+                    find_mask(dir, &im.name).ok_or_else(|| ImportError::MissingFile {
+                        path: dir.join(format!("{}.png", im.name)),
+                        what: format!(
+                    "no mask for image '{}' in {} (tried <name>.png, <stem>.png and a PNG with \
+                     the same number)",
+                    im.name,
+                    dir.display()
+                ),
+                    })?,
+                )
+            }
+            None => None,
+        };
+        views.push(ImportedView {
+            name: im.name.clone(),
+            image,
+            mask,
+            camera: Camera {
+                k,
+                r,
+                // x_cam = R·X + t = R·(X − C)  ⇒  C = −Rᵀ·t.
+                center: -(r.transpose() * t),
+                width,
+                height,
+            },
+        });
+    }
+    let roi = match opts.roi {
+        Some(roi) => RoiChoice {
+            roi,
+            method: "given by --roi-center and --roi-radius".into(),
+        },
+        None => {
+            let points: Vec<([f64; 3], usize)> = model
+                .points
+                .iter()
+                .map(|p| (p.xyz, p.track.len()))
+                .collect();
+            let centers: Vec<Vector3<f64>> = views.iter().map(|v| v.camera.center).collect();
+            roi_from_points(&points, &centers)?
+        }
+    };
+    Ok((views, roi, format))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::camera::tests::random_camera;
+    use rand::SeedableRng;
+
+    fn sample_model() -> ColmapModel {
+        let mut cameras = BTreeMap::new();
+        cameras.insert(
+            3,
+            ColmapCamera {
+                id: 3,
+                model: "PINHOLE".into(),
+                width: 64,
+                height: 48,
+                params: vec![70.5, 71.25, 32.0, 23.5],
+            },
+        );
+        cameras.insert(
+            7,
+            ColmapCamera {
+                id: 7,
+                model: "OPENCV".into(),
+                width: 64,
+                height: 48,
+                params: vec![70.0, 70.0, 31.0, 24.0, 0.01, -0.002, 0.0, 0.0],
+            },
+        );
+        ColmapModel {
+            cameras,
+            images: vec![
+                ColmapImage {
+                    id: 12,
+                    qvec: [0.5, 0.5, -0.5, 0.5],
+                    tvec: [0.1, -0.2, 3.0],
+                    camera_id: 3,
+                    name: "b.png".into(),
+                    points2d: vec![(1.5, 2.25, 4), (3.0, 4.0, -1)],
+                },
+                ColmapImage {
+                    id: 5,
+                    qvec: [1.0, 0.0, 0.0, 0.0],
+                    tvec: [0.0, 0.0, 2.0],
+                    camera_id: 7,
+                    name: "a.png".into(),
+                    points2d: vec![],
+                },
+            ],
+            points: vec![ColmapPoint {
+                id: 4,
+                xyz: [0.1, 1.0 / 3.0, -2.5e-7],
+                rgb: [10, 200, 255],
+                error: 0.25,
+                track: vec![(12, 0), (5, 3)],
+            }],
+        }
+    }
+
+    #[test]
+    fn text_and_binary_forms_round_trip_exactly() {
+        let model = sample_model();
+        let dir = tempfile::tempdir().unwrap();
+        let (t, b) = (dir.path().join("t"), dir.path().join("b"));
+        write_text(&model, &t).unwrap();
+        write_binary(&model, &b).unwrap();
+        let (from_text, ft) = read_model(&t).unwrap();
+        let (from_bin, fb) = read_model(&b).unwrap();
+        assert_eq!((ft, fb), (ModelFormat::Text, ModelFormat::Binary));
+        assert_eq!(from_text, model);
+        assert_eq!(from_bin, model);
+    }
+
+    #[test]
+    fn quaternion_and_rotation_invert_each_other() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+        for _ in 0..100 {
+            let r = random_camera(&mut rng).r;
+            let q = quaternion(&r);
+            assert!(q[0] >= 0.0);
+            assert!((rotation(q).unwrap() - r).abs().max() < 1e-14);
+        }
+        // COLMAP's example: qw = 1 is the identity; a 90° turn about z maps x to y.
+        assert_eq!(rotation([1.0, 0.0, 0.0, 0.0]).unwrap(), Matrix3::identity());
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let rz = rotation([h, 0.0, 0.0, h]).unwrap();
+        assert!((rz * Vector3::x() - Vector3::y()).norm() < 1e-15);
+        assert!(rotation([0.0; 4]).is_none());
+        assert!(rotation([f64::NAN, 0.0, 0.0, 1.0]).is_none());
+    }
+
+    #[test]
+    fn pinhole_models_give_k_and_distorted_ones_are_refused_by_name() {
+        let file = Path::new("cameras.txt");
+        let cam = |model: &str, params: Vec<f64>| ColmapCamera {
+            id: 2,
+            model: model.into(),
+            width: 10,
+            height: 10,
+            params,
+        };
+        let k = intrinsics(&cam("SIMPLE_PINHOLE", vec![50.0, 5.0, 4.5]), file).unwrap();
+        assert_eq!(
+            k,
+            Matrix3::new(50.0, 0.0, 5.0, 0.0, 50.0, 4.5, 0.0, 0.0, 1.0)
+        );
+        let k = intrinsics(&cam("PINHOLE", vec![50.0, 52.0, 5.0, 4.5]), file).unwrap();
+        assert_eq!((k[(0, 0)], k[(1, 1)]), (50.0, 52.0));
+        // Distorted models with zero distortion are pinholes.
+        let k = intrinsics(&cam("RADIAL", vec![50.0, 5.0, 4.5, 0.0, 0.0]), file).unwrap();
+        assert_eq!(k[(1, 1)], 50.0);
+        let k = intrinsics(
+            &cam("OPENCV", vec![50.0, 51.0, 5.0, 4.5, 0.0, 0.0, 0.0, 0.0]),
+            file,
+        )
+        .unwrap();
+        assert_eq!(k[(1, 1)], 51.0);
+        for (model, params) in [
+            ("SIMPLE_RADIAL", vec![50.0, 5.0, 4.5, 0.1]),
+            ("OPENCV", vec![50.0, 51.0, 5.0, 4.5, 0.0, 0.0, 1e-4, 0.0]),
+        ] {
+            let err = intrinsics(&cam(model, params), file)
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.contains(model) && err.contains("image_undistorter"),
+                "{err}"
+            );
+        }
+        let err = intrinsics(&cam("OPENCV_FISHEYE", vec![0.0; 8]), file)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("OPENCV_FISHEYE") && err.contains("PINHOLE"),
+            "{err}"
+        );
+        let err = intrinsics(&cam("WEIRD", vec![]), file)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("WEIRD") && err.contains("cameras.txt"),
+            "{err}"
+        );
+        let err = intrinsics(&cam("PINHOLE", vec![1.0]), file)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("expected 4"), "{err}");
+    }
+
+    #[test]
+    fn malformed_files_name_the_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        write_text(&sample_model(), d).unwrap();
+        std::fs::write(d.join("points3D.txt"), "# c\n1 0 0 0 1 2 3 0.5 7\n").unwrap();
+        let err = read_model(d).unwrap_err().to_string();
+        assert!(
+            err.contains("points3D.txt") && err.contains("line 2"),
+            "{err}"
+        );
+        std::fs::remove_file(d.join("points3D.txt")).unwrap();
+        let err = read_model(d).unwrap_err().to_string();
+        assert!(
+            err.contains("points3D.txt") && err.contains("missing"),
+            "{err}"
+        );
+        // A truncated binary file.
+        let b = d.join("bin");
+        write_binary(&sample_model(), &b).unwrap();
+        let bytes = std::fs::read(b.join("images.bin")).unwrap();
+        std::fs::write(b.join("images.bin"), &bytes[..bytes.len() - 5]).unwrap();
+        let err = read_model(&b).unwrap_err().to_string();
+        assert!(
+            err.contains("images.bin") && err.contains("truncated"),
+            "{err}"
+        );
+        // An unknown model id in binary form.
+        let mut cams = std::fs::read(b.join("cameras.bin")).unwrap();
+        cams[12..16].copy_from_slice(&42i32.to_le_bytes());
+        std::fs::write(b.join("cameras.bin"), &cams).unwrap();
+        let err = read_model(&b).unwrap_err().to_string();
+        assert!(
+            err.contains("cameras.bin") && err.contains("model id 42"),
+            "{err}"
+        );
+        assert!(read_model(&d.join("nowhere"))
+            .unwrap_err()
+            .to_string()
+            .contains("cameras.txt"));
+    }
+}

@@ -1,0 +1,581 @@
+//! Importing posed photographs from other tools into a NeuS scene folder
+//! (../shared/DESIGN.md §10): COLMAP sparse models ([`colmap`]) and instant-ngp / nerfstudio
+//! `transforms.json` files ([`transforms`]); and the reverse, for tests, writing a scene's true
+//! cameras in those formats ([`export`]).
+//!
+//! Every importer produces [`ImportedView`]s (image file, optional mask file, camera in the
+//! source's world frame, OpenCV axes) and a region of interest ([`Roi`]), then
+//! [`write_imported_scene`] writes the standard layout of [`crate::scene::dtu`]:
+//!
+//! ```text
+//! <out>/image/000000.png ...   the views as 8-bit RGB PNG (COLMAP: sorted by image name;
+//!                              transforms.json: frame order)
+//! <out>/mask/000.png ...       masks, when a mask folder or mask paths were given
+//! <out>/cameras_sphere.npz     world_mat_i = K·[R | −R·C] (source world frame), and
+//!                              scale_mat_i = diag(r, r, r, 1) + ROI centre
+//! <out>/import.json            what was imported and which region of interest was chosen, how
+//! ```
+//!
+//! The world frame and its unit are the source's (COLMAP's arbitrary similarity frame, or the
+//! transforms.json frame): the importer applies no rotation or scale to the cameras; the only
+//! similarity it chooses is the `scale_mat` that maps the region of interest (centre `c`, radius
+//! `r`) onto the unit sphere, `X_world = r·X_norm + c`, as NeuS's `preprocess_custom_data` does.
+//!
+//! Images are read as PNG or JPEG (the `image` crate's `png` and `jpeg` codecs; the format is
+//! guessed from the file's bytes) and written as 8-bit PNG; masks likewise (first channel).
+
+pub mod colmap;
+pub mod colmap_binary;
+pub mod export;
+pub mod transforms;
+
+use crate::scene::{
+    write_cameras, Camera, GrayImage, ImageError, Normalization, RgbImage, SceneError,
+};
+use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+
+/// Why an import or export failed. Every variant names the file, camera or value at fault.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    /// A file or folder could not be read or written.
+    #[error("cannot access {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A required input file is absent.
+    #[error("{path} is missing ({what})")]
+    MissingFile { path: PathBuf, what: String },
+    /// A file does not parse (the message says where and why).
+    #[error("{file}: {message}")]
+    Parse { file: PathBuf, message: String },
+    /// A camera model neus-aug does not handle.
+    #[error(
+        "{file}: camera {camera_id} uses the {model} camera model, which neus-aug does not \
+             import ({hint})"
+    )]
+    UnsupportedModel {
+        file: PathBuf,
+        camera_id: u64,
+        model: String,
+        hint: String,
+    },
+    /// A registered image whose file is not in the image folder.
+    #[error("image '{name}' is registered in {model} but {path} does not exist")]
+    MissingImage {
+        name: String,
+        model: PathBuf,
+        path: PathBuf,
+    },
+    /// An image's size differs from its camera's.
+    #[error("image {path} is {actual_w}×{actual_h} but its camera says {camera_w}×{camera_h}")]
+    ImageSize {
+        path: PathBuf,
+        actual_w: u32,
+        actual_h: u32,
+        camera_w: u32,
+        camera_h: u32,
+    },
+    /// The model has no usable view.
+    #[error("{0}: no registered image to import")]
+    NoViews(PathBuf),
+    /// The region of interest cannot be chosen or is invalid.
+    #[error("region of interest: {0}")]
+    Roi(String),
+    /// A camera centre lies inside the region of interest, so NeuS would sample behind it.
+    #[error(
+        "camera of '{name}' lies inside the region of interest (distance {distance:.6} from \
+             the centre, radius {radius:.6}); give --roi-center and a smaller --roi-radius"
+    )]
+    CameraInsideRoi {
+        name: String,
+        distance: f64,
+        radius: f64,
+    },
+    /// The output folder exists and is not empty.
+    #[error("output folder {0} exists and is not empty")]
+    OutputExists(PathBuf),
+    /// An export was asked of a camera the format cannot express.
+    #[error("cannot export: {0}")]
+    Export(String),
+    /// Writing the scene failed.
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    /// Reading or writing an image failed.
+    #[error(transparent)]
+    Image(#[from] ImageError),
+}
+
+pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ImportError + '_ {
+    move |source| ImportError::Io {
+        path: path.into(),
+        source,
+    }
+}
+
+/// A region of interest in the source's world frame: the sphere that becomes the unit sphere.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Roi {
+    /// Centre (world units).
+    pub center: [f64; 3],
+    /// Radius (world units), `> 0`.
+    pub radius: f64,
+}
+
+impl Roi {
+    /// Checks that the centre is finite and the radius finite and positive.
+    pub fn validate(&self) -> Result<(), ImportError> {
+        if !self.center.iter().all(|v| v.is_finite()) {
+            return Err(ImportError::Roi(format!(
+                "centre {:?} is not finite",
+                self.center
+            )));
+        }
+        if !(self.radius.is_finite() && self.radius > 0.0) {
+            return Err(ImportError::Roi(format!(
+                "radius {} is not a positive number",
+                self.radius
+            )));
+        }
+        Ok(())
+    }
+
+    /// The scene normalisation `X_world = r·X_norm + c`.
+    pub fn normalization(&self) -> Normalization {
+        Normalization {
+            scale: self.radius,
+            center: self.center,
+        }
+    }
+}
+
+/// The region of interest an importer settled on, and how.
+#[derive(Clone, Debug, Serialize)]
+pub struct RoiChoice {
+    /// The sphere.
+    pub roi: Roi,
+    /// How it was chosen, in words (written to `import.json`).
+    pub method: String,
+}
+
+/// Parses `x,y,z` (the `--roi-center` flag).
+pub fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let bad = || format!("'{s}' is not x,y,z (three numbers separated by commas)");
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let mut v = [0.0f64; 3];
+    for (k, p) in parts.iter().enumerate() {
+        v[k] = p.parse().map_err(|_| bad())?;
+        if !v[k].is_finite() {
+            return Err(bad());
+        }
+    }
+    Ok(v)
+}
+
+/// The value at quantile `q ∈ [0, 1]` of `values` (sorted in place; nearest rank, no
+/// interpolation). `values` must not be empty.
+fn quantile(values: &mut [f64], q: f64) -> f64 {
+    values.sort_by(f64::total_cmp);
+    let i = ((values.len() - 1) as f64 * q).round() as usize;
+    values[i]
+}
+
+/// Region of interest from sparse 3-D points with their track lengths (number of images that
+/// observe each point), robust to stray points:
+/// 1. keep points seen by at least 3 images (COLMAP's triangulated outliers are mostly 2-view
+///    points); if fewer than 16 remain, keep all points;
+/// 2. centre = the per-axis midpoint of the 2nd and 98th percentiles (a trimmed bounding box);
+/// 3. radius = 1.1 × the 98th percentile of the kept points' distances to that centre (10 %
+///    margin, so the object's surface is not tangent to the sphere);
+/// 4. if a camera would lie inside, the radius shrinks to 0.9 × the nearest camera's distance
+///    (reported in `method`).
+pub fn roi_from_points(
+    points: &[([f64; 3], usize)],
+    camera_centers: &[Vector3<f64>],
+) -> Result<RoiChoice, ImportError> {
+    let finite: Vec<&([f64; 3], usize)> = points
+        .iter()
+        .filter(|(p, _)| p.iter().all(|v| v.is_finite()))
+        .collect();
+    let seen3: Vec<[f64; 3]> = finite
+        .iter()
+        .filter(|(_, t)| *t >= 3)
+        .map(|(p, _)| *p)
+        .collect();
+    let (kept, which) = if seen3.len() >= 16 {
+        (seen3, "points seen by >= 3 images")
+    } else {
+        (finite.iter().map(|(p, _)| *p).collect(), "all points")
+    };
+    if kept.len() < 4 {
+        return Err(ImportError::Roi(format!(
+            "only {} finite sparse points: give --roi-center and --roi-radius",
+            kept.len()
+        )));
+    }
+    let mut center = [0.0; 3];
+    for (k, c) in center.iter_mut().enumerate() {
+        let mut axis: Vec<f64> = kept.iter().map(|p| p[k]).collect();
+        let lo = quantile(&mut axis, 0.02);
+        let hi = quantile(&mut axis, 0.98);
+        *c = 0.5 * (lo + hi);
+    }
+    let c = Vector3::from(center);
+    let mut dist: Vec<f64> = kept
+        .iter()
+        .map(|p| (Vector3::from(*p) - c).norm())
+        .collect();
+    let mut radius = 1.1 * quantile(&mut dist, 0.98);
+    let mut method = format!(
+        "from {} of {} sparse points ({which}): centre = midpoint of the 2nd/98th percentiles per \
+         axis, radius = 1.1 x 98th percentile of distances",
+        kept.len(),
+        points.len()
+    );
+    let nearest = camera_centers
+        .iter()
+        .map(|cc| (cc - c).norm())
+        .fold(f64::INFINITY, f64::min);
+    if nearest <= radius {
+        radius = 0.9 * nearest;
+        method.push_str("; shrunk to 0.9 x the nearest camera's distance");
+    }
+    let roi = Roi { center, radius };
+    roi.validate()?;
+    Ok(RoiChoice { roi, method })
+}
+
+/// Region of interest from the camera layout alone (for captures that orbit an object):
+/// - centre = the point closest, in least squares, to every optical axis (the line through each
+///   camera centre along its viewing direction): solves `Σ (I − d dᵀ) (p − C) = 0`;
+/// - radius = the largest sphere about that centre every camera sees whole:
+///   `min_i |C_i − p| · sin(θ_i)`, with `θ_i` the half field of view of camera `i`'s smaller
+///   image side (`atan(min(w, h) / (2 f))`, `f` the larger focal length).
+///
+/// Fails when the axes are (nearly) parallel, e.g. a forward-facing capture: give `--roi-*`.
+pub fn roi_from_cameras(cameras: &[Camera]) -> Result<RoiChoice, ImportError> {
+    let mut a = Matrix3::zeros();
+    let mut b = Vector3::zeros();
+    for cam in cameras {
+        // The optical axis is the third row of R (the camera z axis in world coordinates).
+        let d: Vector3<f64> = cam.r.row(2).transpose().normalize();
+        let m = Matrix3::identity() - d * d.transpose();
+        a += m;
+        b += m * cam.center;
+    }
+    let eig = a.symmetric_eigenvalues();
+    let (lo, hi) = (eig.min(), eig.max());
+    if cameras.len() < 2 || lo <= 1e-6 * hi {
+        return Err(ImportError::Roi(
+            "the cameras' optical axes do not meet (too few views, or parallel axes as in a \
+             forward-facing capture): give --roi-center and --roi-radius"
+                .into(),
+        ));
+    }
+    let p = a
+        .try_inverse()
+        .expect("positive definite by the eigenvalue test")
+        * b;
+    let mut radius = f64::INFINITY;
+    for cam in cameras {
+        let f = cam.k[(0, 0)].max(cam.k[(1, 1)]);
+        let half = (cam.width.min(cam.height) as f64 / (2.0 * f)).atan();
+        radius = radius.min((cam.center - p).norm() * half.sin());
+    }
+    let roi = Roi {
+        center: [p.x, p.y, p.z],
+        radius,
+    };
+    roi.validate()?;
+    Ok(RoiChoice {
+        roi,
+        method: format!(
+            "from the layout of {} cameras: centre = point closest to all optical axes, radius = \
+             largest sphere about it that every camera sees whole",
+            cameras.len()
+        ),
+    })
+}
+
+/// One view to import: where its image (and mask) is and its camera in the source's world frame.
+#[derive(Clone, Debug)]
+pub struct ImportedView {
+    /// The name the source uses (COLMAP image name, transforms.json `file_path`).
+    pub name: String,
+    /// The image file.
+    pub image: PathBuf,
+    /// The mask file, if any (first channel used; 1 = object).
+    pub mask: Option<PathBuf>,
+    /// Camera in the source's world frame (OpenCV axes), size = the image's.
+    pub camera: Camera,
+}
+
+/// What an import wrote (also saved as `import.json` in the scene).
+#[derive(Clone, Debug, Serialize)]
+pub struct ImportReport {
+    /// `colmap-text`, `colmap-binary` or `transforms`.
+    pub source_format: String,
+    /// The model folder or json file read.
+    pub source: PathBuf,
+    /// The scene folder written.
+    pub scene: PathBuf,
+    /// Number of views.
+    pub views: usize,
+    /// Whether `mask/` was written.
+    pub masks: bool,
+    /// The region of interest (world frame of the source) and how it was chosen.
+    pub roi: RoiChoice,
+    /// Source name of each view, in scene order (`image/{i:06}.png` is `names[i]`).
+    pub names: Vec<String>,
+}
+
+/// Errors unless every camera centre lies outside the region of interest.
+pub fn check_cameras_outside(views: &[ImportedView], roi: &Roi) -> Result<(), ImportError> {
+    let c = Vector3::from(roi.center);
+    for v in views {
+        let distance = (v.camera.center - c).norm();
+        if distance <= roi.radius {
+            return Err(ImportError::CameraInsideRoi {
+                name: v.name.clone(),
+                distance,
+                radius: roi.radius,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Errors unless `out` is absent or an empty folder; then creates it.
+pub(crate) fn prepare_output(out: &Path) -> Result<(), ImportError> {
+    if out.exists() {
+        let mut entries = std::fs::read_dir(out).map_err(io_err(out))?;
+        if entries.next().is_some() {
+            return Err(ImportError::OutputExists(out.into()));
+        }
+    }
+    std::fs::create_dir_all(out).map_err(io_err(out))
+}
+
+/// Writes the NeuS scene folder `out` (absent or empty): images (and masks, when every view has
+/// one) converted to 8-bit PNG in the given order, `cameras_sphere.npz` with the ROI's
+/// `scale_mat`, and `import.json`. Checks every image's size against its camera and that every
+/// camera lies outside the ROI first, so a bad input leaves no half-written scene behind the
+/// first error it can detect from headers. Images are converted in parallel, one per thread
+/// at a time.
+pub fn write_imported_scene(
+    out: &Path,
+    views: &[ImportedView],
+    roi: &RoiChoice,
+    source_format: &str,
+    source: &Path,
+) -> Result<ImportReport, ImportError> {
+    if views.is_empty() {
+        return Err(ImportError::NoViews(source.into()));
+    }
+    roi.roi.validate()?;
+    check_cameras_outside(views, &roi.roi)?;
+    for v in views {
+        for path in std::iter::once(&v.image).chain(&v.mask) {
+            if !path.is_file() {
+                return Err(ImportError::MissingImage {
+                    name: v.name.clone(),
+                    model: source.into(),
+                    path: path.clone(),
+                });
+            }
+            let (w, h) = image::image_dimensions(path).map_err(|source| {
+                ImportError::Image(ImageError::Decode {
+                    path: path.clone(),
+                    source,
+                })
+            })?;
+            if (w, h) != (v.camera.width, v.camera.height) {
+                return Err(ImportError::ImageSize {
+                    path: path.clone(),
+                    actual_w: w,
+                    actual_h: h,
+                    camera_w: v.camera.width,
+                    camera_h: v.camera.height,
+                });
+            }
+        }
+    }
+    let masks = views.iter().all(|v| v.mask.is_some());
+    prepare_output(out)?;
+    let image_dir = out.join("image");
+    std::fs::create_dir_all(&image_dir).map_err(io_err(&image_dir))?;
+    let mask_dir = out.join("mask");
+    if masks {
+        std::fs::create_dir_all(&mask_dir).map_err(io_err(&mask_dir))?;
+    }
+    views
+        .par_iter()
+        .enumerate()
+        .try_for_each(|(i, v)| -> Result<(), ImportError> {
+            RgbImage::load(&v.image)?.save(&image_dir.join(format!("{i:06}.png")))?;
+            if let (true, Some(m)) = (masks, &v.mask) {
+                GrayImage::load(m)?.save(&mask_dir.join(format!("{i:03}.png")))?;
+            }
+            Ok(())
+        })?;
+    let cameras: Vec<&Camera> = views.iter().map(|v| &v.camera).collect();
+    write_cameras(out, &cameras, &roi.roi.normalization())?;
+    let report = ImportReport {
+        source_format: source_format.into(),
+        source: source.into(),
+        scene: out.into(),
+        views: views.len(),
+        masks,
+        roi: roi.clone(),
+        names: views.iter().map(|v| v.name.clone()).collect(),
+    };
+    let path = out.join("import.json");
+    std::fs::write(
+        &path,
+        serde_json::to_string_pretty(&report).expect("report serialises"),
+    )
+    .map_err(io_err(&path))?;
+    Ok(report)
+}
+
+/// Finds the mask of image `name` (a path relative to the image folder) in `mask_dir`, trying in
+/// order: COLMAP's convention `<name>.png` (`colmap` mask_path: "image.jpg" → "image.jpg.png"),
+/// the same relative path with a `.png` extension, and finally any PNG in the same relative
+/// folder whose stem holds the same number (so `mask/000.png` matches `image/000000.png`, the
+/// DTU layout's paddings).
+pub fn find_mask(mask_dir: &Path, name: &str) -> Option<PathBuf> {
+    let rel = Path::new(name);
+    let colmap_style = mask_dir.join(format!("{name}.png"));
+    if colmap_style.is_file() {
+        return Some(colmap_style);
+    }
+    let same = mask_dir.join(rel).with_extension("png");
+    if same.is_file() {
+        return Some(same);
+    }
+    let number = |p: &Path| -> Option<u64> {
+        let digits: String = p
+            .file_stem()?
+            .to_string_lossy()
+            .chars()
+            .filter(|c| c.is_ascii_digit())
+            .collect();
+        digits.parse().ok()
+    };
+    let want = number(rel)?;
+    let dir = match rel.parent() {
+        Some(p) if !p.as_os_str().is_empty() => mask_dir.join(p),
+        _ => mask_dir.to_path_buf(),
+    };
+    let mut found: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) && number(p) == Some(want)
+        })
+        .collect();
+    found.sort();
+    (found.len() == 1).then(|| found.remove(0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::camera::tests::random_camera;
+    use rand::SeedableRng;
+
+    #[test]
+    fn roi_from_points_ignores_stray_points_and_two_view_points() {
+        // 400 points on a sphere of radius 2 about (10, -5, 3), seen by 4 images; 10 far outliers
+        // seen by 4 images (trimmed by the percentiles); 50 two-view points far away (ignored).
+        let c = [10.0, -5.0, 3.0];
+        let mut pts = Vec::new();
+        for i in 0..400 {
+            let t = i as f64 * 0.618_034 * std::f64::consts::TAU;
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / 400.0;
+            let r = (1.0 - z * z).sqrt();
+            pts.push((
+                [
+                    c[0] + 2.0 * r * t.cos(),
+                    c[1] + 2.0 * r * t.sin(),
+                    c[2] + 2.0 * z,
+                ],
+                4,
+            ));
+        }
+        for i in 0..5 {
+            pts.push(([1e3 + i as f64, 0.0, 0.0], 4));
+        }
+        for i in 0..50 {
+            pts.push(([-300.0, i as f64, 7.0], 2));
+        }
+        let choice = roi_from_points(&pts, &[Vector3::new(10.0, -5.0, 30.0)]).unwrap();
+        for (got, want) in choice.roi.center.iter().zip(c) {
+            assert!((got - want).abs() < 0.1, "{:?}", choice.roi);
+        }
+        assert!(
+            choice.roi.radius > 2.0 && choice.roi.radius < 2.4,
+            "{:?}",
+            choice.roi
+        );
+        // A camera at distance 1.5 forces the radius below it.
+        let near = roi_from_points(&pts, &[Vector3::new(11.5, -5.0, 3.0)]).unwrap();
+        assert!((near.roi.radius - 0.9 * 1.5).abs() < 0.1, "{:?}", near.roi);
+        assert!(near.method.contains("shrunk"));
+    }
+
+    #[test]
+    fn roi_from_cameras_finds_the_common_look_at_point() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
+        let target = Vector3::new(0.3, -0.2, 0.1);
+        let cams: Vec<Camera> = (0..12)
+            .map(|_| {
+                let mut cam = random_camera(&mut rng);
+                // Re-aim: rows of R = camera axes in world coordinates, z toward the target.
+                let z = (target - cam.center).normalize();
+                let x = z.cross(&Vector3::new(0.0, 0.0, 1.0)).normalize();
+                let y = z.cross(&x);
+                cam.r = Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]);
+                cam
+            })
+            .collect();
+        let choice = roi_from_cameras(&cams).unwrap();
+        assert!((Vector3::from(choice.roi.center) - target).norm() < 1e-9);
+        for cam in &cams {
+            assert!((cam.center - target).norm() > choice.roi.radius);
+        }
+        // One camera alone: the axes cannot meet.
+        assert!(matches!(
+            roi_from_cameras(&cams[..1]),
+            Err(ImportError::Roi(_))
+        ));
+    }
+
+    #[test]
+    fn vec3_flag_parses_and_rejects() {
+        assert_eq!(parse_vec3("1, -2.5,3e2").unwrap(), [1.0, -2.5, 300.0]);
+        assert!(parse_vec3("1,2").is_err());
+        assert!(parse_vec3("1,2,x").is_err());
+        assert!(parse_vec3("1,2,nan").is_err());
+    }
+
+    #[test]
+    fn masks_are_found_by_colmap_name_by_stem_and_by_number() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::write(d.join("a.jpg.png"), b"").unwrap();
+        std::fs::write(d.join("b.png"), b"").unwrap();
+        std::fs::write(d.join("007.png"), b"").unwrap();
+        assert_eq!(find_mask(d, "a.jpg"), Some(d.join("a.jpg.png")));
+        assert_eq!(find_mask(d, "b.jpg"), Some(d.join("b.png")));
+        assert_eq!(find_mask(d, "000007.png"), Some(d.join("007.png")));
+        assert_eq!(find_mask(d, "000008.png"), None);
+    }
+}
