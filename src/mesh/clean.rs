@@ -10,6 +10,9 @@
 //!    dilation. This is the culling that the DTU evaluations of the NeuS successors apply before
 //!    scoring (MonoSDF / NeuralWarp `cull_mesh` style: project, test the dilated mask, drop faces
 //!    that touch a culled vertex); NeuS itself evaluates its raw mesh.
+//!    Without masks (`data.masks = false`), the frustum rule replaces it: a vertex that no
+//!    training view sees inside its image is removed (what no camera constrains is not evidence
+//!    of a surface; the same culling as above with an all-object mask).
 //! 2. **Small components**: faces are grouped into connected components (through shared vertices)
 //!    and a component whose surface area is below `min_area_share` × the largest component's area
 //!    is removed. Separate real parts of an object have areas of the same order as the main part;
@@ -35,6 +38,8 @@ pub struct CleanOptions {
     pub mask_cull: bool,
     /// Dilation of the masks in pixels (square window of radius `dilate_px`) before culling.
     pub dilate_px: usize,
+    /// Without masks: cull what no training view sees inside its image.
+    pub frustum_cull: bool,
 }
 
 impl Default for CleanOptions {
@@ -43,6 +48,7 @@ impl Default for CleanOptions {
             min_area_share: 0.02,
             mask_cull: true,
             dilate_px: 4,
+            frustum_cull: true,
         }
     }
 }
@@ -58,6 +64,8 @@ pub struct CleanReport {
     pub faces_before: usize,
     /// Faces removed by mask culling.
     pub faces_culled_by_masks: usize,
+    /// Faces removed because no training view sees them inside its image (no masks).
+    pub faces_outside_all_views: usize,
     /// Faces removed with small components.
     pub faces_in_small_components: usize,
     /// Components removed as small.
@@ -206,11 +214,34 @@ pub fn mask_cull_filter(
         .collect()
 }
 
-/// Applies the clean-up rules (module docs) and reports what they removed. `views` may be empty
-/// (no masks): then only the component rule runs.
+/// Per face: kept when each of its vertices projects inside the image of at least one camera
+/// (normalised space, in front of the camera).
+pub fn frustum_filter(mesh: &TriMesh, cameras: &[&Camera]) -> Vec<bool> {
+    let seen: Vec<bool> = mesh
+        .vertices
+        .iter()
+        .map(|v| {
+            let x = Vector3::from(v.map(|c| c as f64));
+            cameras.iter().any(|cam| {
+                cam.project(&x).is_some_and(|(u, vv, _)| {
+                    u >= 0.0 && vv >= 0.0 && u < cam.width as f64 && vv < cam.height as f64
+                })
+            })
+        })
+        .collect();
+    mesh.faces
+        .iter()
+        .map(|f| f.iter().all(|&i| seen[i as usize]))
+        .collect()
+}
+
+/// Applies the clean-up rules (module docs) and reports what they removed. `views` pairs the
+/// training cameras with their masks; `cameras` are all training cameras, used by the frustum
+/// rule when `views` is empty (no masks). With neither, only the component rule runs.
 pub fn clean_mesh(
     mesh: &TriMesh,
     views: &[(&Camera, &GrayImage)],
+    cameras: &[&Camera],
     opts: &CleanOptions,
 ) -> (TriMesh, CleanReport) {
     let (_, components_before) = face_components(mesh);
@@ -223,6 +254,11 @@ pub fn clean_mesh(
         let keep = mask_cull_filter(mesh, views, opts.dilate_px);
         let m = keep_faces(mesh, &keep);
         report.faces_culled_by_masks = mesh.faces.len() - m.faces.len();
+        m
+    } else if opts.frustum_cull && !cameras.is_empty() {
+        let keep = frustum_filter(mesh, cameras);
+        let m = keep_faces(mesh, &keep);
+        report.faces_outside_all_views = mesh.faces.len() - m.faces.len();
         m
     } else {
         mesh.clone()
@@ -287,7 +323,7 @@ mod tests {
         let (_, n) = face_components(&m);
         assert_eq!(n, components_reference(&m));
         assert_eq!(n, 3);
-        let (out, rep) = clean_mesh(&m, &[], &CleanOptions::default());
+        let (out, rep) = clean_mesh(&m, &[], &[], &CleanOptions::default());
         assert_eq!(
             (
                 rep.components_before,
@@ -308,7 +344,7 @@ mod tests {
             vertices: vec![],
             faces: vec![],
         };
-        let (out, rep) = clean_mesh(&m, &[], &CleanOptions::default());
+        let (out, rep) = clean_mesh(&m, &[], &[], &CleanOptions::default());
         assert!(out.faces.is_empty());
         assert_eq!(rep.components_after, 0);
     }
@@ -382,8 +418,18 @@ mod tests {
             min_area_share: 0.0,
             ..Default::default()
         };
-        let (out, rep) = clean_mesh(&m, &[(&cam, &mask)], &opts);
+        let (out, rep) = clean_mesh(&m, &[(&cam, &mask)], &[&cam], &opts);
         assert_eq!(rep.faces_culled_by_masks, 1, "{rep:?}");
         assert_eq!(out.faces.len(), n_sphere);
+        // Without masks the frustum rule runs instead: the side triangle is inside the image and
+        // stays; a triangle behind the camera goes.
+        let b = m.vertices.len() as u32;
+        m.vertices
+            .extend([[0.0, 0.0, 3.5], [0.1, 0.0, 3.5], [0.0, 0.1, 3.5]]);
+        m.faces.push([b, b + 1, b + 2]);
+        let (out, rep) = clean_mesh(&m, &[], &[&cam], &opts);
+        assert_eq!(rep.faces_outside_all_views, 1, "{rep:?}");
+        assert_eq!(rep.faces_culled_by_masks, 0);
+        assert_eq!(out.faces.len(), n_sphere + 1);
     }
 }

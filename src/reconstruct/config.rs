@@ -171,7 +171,8 @@ pub struct MeshConfig {
     pub clean: bool,
     /// Remove components whose area is below this share of the largest component's (`[0, 1]`).
     pub clean_min_area_share: f64,
-    /// Cull what a training view sees outside its dilated mask (only when the scene has masks).
+    /// Cull what a training view sees outside its dilated mask; without masks
+    /// (`data.masks = false`), what no training view sees inside its image.
     pub clean_mask_cull: bool,
     /// Mask dilation before culling, pixels of the training images.
     pub clean_dilate_px: usize,

@@ -590,13 +590,17 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 v.mask.as_ref().map(|m| (&v.camera, m))
             })
             .collect();
+        let cameras: Vec<&crate::scene::Camera> =
+            train_idx.iter().map(|&i| &scene.views[i].camera).collect();
         let (m, rep) = clean_mesh(
             &raw,
             &views,
+            &cameras,
             &CleanOptions {
                 min_area_share: cfg.mesh.clean_min_area_share,
                 mask_cull: cfg.mesh.clean_mask_cull,
                 dilate_px: cfg.mesh.clean_dilate_px,
+                frustum_cull: cfg.mesh.clean_mask_cull,
             },
         );
         (m, Some(rep))
