@@ -54,7 +54,8 @@ impl Default for CleanOptions {
 }
 
 /// What [`clean_mesh`] removed.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct CleanReport {
     /// Connected components before clean-up.
     pub components_before: usize,

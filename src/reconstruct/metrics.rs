@@ -1,11 +1,14 @@
-//! What a run reports: the types serialised into `metrics.json` (world mm, seconds, degrees).
+//! What a run reports: the types serialised into `metrics.json` (world mm, seconds, degrees), and
+//! read back by the study reports (`study::report::records`). Fields added after the first
+//! release carry `#[serde(default)]`, so older records still load; the figures a report needs
+//! (configuration hash, Chamfer means, training steps, timings) stay required.
 
 use super::config::Preset;
 use super::ResolvedScene;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Chamfer figures of the mesh (DTU protocol, world mm).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ChamferMetrics {
     /// Accuracy: mean mesh → GT distance (DTUeval-python `mean_d2s`).
     pub mean_d2s: f64,
@@ -16,29 +19,33 @@ pub struct ChamferMetrics {
     /// `acc + comp`, what the paper reports.
     pub chamfer_sum: f64,
     /// Ground-truth root and scan used.
+    #[serde(default)]
     pub gt_root: String,
+    #[serde(default)]
     pub scan: u32,
 }
 
 /// PSNR/SSIM of one held-out view.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ViewMetrics {
     pub view: usize,
     pub psnr: f64,
     pub ssim: Option<f64>,
     /// Mean angle (degrees) between rendered and ground-truth normals where both see surface
     /// (`normal_error` module); `None` without a ground-truth mesh in the scene folder.
+    #[serde(default)]
     pub normal_error_deg: Option<f64>,
     /// Intersection over union of `opacity > 0.5` and `mask > 0.5` (`None` without a mask).
     pub mask_iou: Option<f64>,
 }
 
 /// Seconds per phase.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct Timings {
     pub load: f64,
     pub prepare: f64,
     pub train: f64,
+    #[serde(default)]
     pub mesh: f64,
     pub eval: f64,
     pub render: f64,
@@ -46,23 +53,33 @@ pub struct Timings {
 }
 
 /// Training summary.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct TrainSummary {
     pub iterations: u64,
     pub resumed_from: Option<u64>,
+    #[serde(default)]
     pub final_loss: f64,
+    #[serde(default)]
     pub final_train_psnr: f64,
+    #[serde(default)]
     pub final_inv_s: f64,
+    #[serde(default)]
     pub skipped_steps: u64,
+    #[serde(default)]
     pub rays: u64,
+    #[serde(default)]
     pub samples: u64,
+    #[serde(default)]
     pub samples_per_second: f64,
+    #[serde(default)]
     pub train_views: usize,
+    #[serde(default)]
     pub heldout_views: Vec<usize>,
 }
 
 /// Mesh summary.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default)]
 pub struct MeshSummary {
     pub vertices: usize,
     pub faces: usize,
@@ -82,26 +99,65 @@ pub struct MeshSummary {
 }
 
 /// Everything `metrics.json` holds.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Metrics {
+    #[serde(default)]
     pub scene: ResolvedScene,
+    #[serde(default)]
     pub preset: Preset,
+    #[serde(default)]
     pub augment: crate::augment::AugMode,
+    #[serde(default)]
     pub seed: u64,
     pub config_hash: String,
     /// `None` when no ground truth was found (see `eval_note`).
     pub chamfer: Option<ChamferMetrics>,
+    #[serde(default)]
     pub eval_note: Option<String>,
     pub psnr_heldout: Option<f64>,
     pub ssim_heldout: Option<f64>,
     /// Pixel-weighted mean normal angular error over the held-out views (degrees).
+    #[serde(default)]
     pub normal_error_deg: Option<f64>,
     /// Mean silhouette IoU over the held-out views that have masks.
+    #[serde(default)]
     pub mask_iou_heldout: Option<f64>,
+    #[serde(default)]
     pub heldout: Vec<ViewMetrics>,
     pub train: TrainSummary,
+    #[serde(default)]
     pub mesh: MeshSummary,
     pub timings_s: Timings,
+    #[serde(default)]
     pub threads: usize,
+    #[serde(default)]
     pub version: String,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn old_records_load_and_the_required_figures_stay_required() {
+        // What the first releases wrote, trimmed to what a study needs: it loads, the fields
+        // added later take their defaults.
+        let old = r#"{"config_hash":"abc","chamfer":{"mean_d2s":0.4,"mean_s2d":0.5,"overall":0.45,
+            "chamfer_sum":0.9},"psnr_heldout":31.0,"ssim_heldout":0.98,
+            "train":{"iterations":2000,"resumed_from":null},
+            "timings_s":{"load":0,"prepare":0,"train":1,"mesh":0,"eval":0,"render":0,"total":1},
+            "mesh":{"vertices":3,"faces":1,"boundary_edges":3,"non_manifold_edges":0,"components":1}}"#;
+        let m: Metrics = serde_json::from_str(old).unwrap();
+        assert_eq!(m.chamfer.as_ref().unwrap().chamfer_sum, 0.9);
+        assert_eq!(
+            (m.mesh.components, m.mesh.genus, m.train.iterations),
+            (1, 0, 2000)
+        );
+        assert!(m.normal_error_deg.is_none() && m.mesh.clean.is_none());
+        // A record without its Chamfer sum or its hash is an error, not a zero.
+        let bad = old.replace(",\n            \"chamfer_sum\":0.9", "");
+        assert!(serde_json::from_str::<Metrics>(&bad).is_err());
+        let bad = old.replace("\"config_hash\":\"abc\",", "");
+        assert!(serde_json::from_str::<Metrics>(&bad).is_err());
+    }
 }

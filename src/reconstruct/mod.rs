@@ -104,10 +104,11 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> ReconstructError + '_ {
 }
 
 /// Where a scene came from.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SceneKind {
     /// A folder given by path.
+    #[default]
     Folder,
     /// A DTU scan under the data root.
     Dtu,
@@ -116,7 +117,7 @@ pub enum SceneKind {
 }
 
 /// A resolved scene: its folder and a short name for output folders.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
 pub struct ResolvedScene {
     pub dir: PathBuf,
     pub name: String,

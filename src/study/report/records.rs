@@ -6,47 +6,9 @@ use super::super::plan::{
     self, run_dir, run_state, RunSpec, RunState, StudyPlan, BASE_CONFIG_FILE,
 };
 use super::super::{io_err, StudyError};
-use serde::{Deserialize, Serialize};
+use crate::reconstruct::Metrics;
+use serde::Serialize;
 use std::path::Path;
-
-/// The part of `metrics.json` a study reads: fields of `reconstruct::Metrics`, same names and
-/// types. Fields not named here are ignored, so files written by older or newer versions load.
-/// (Reading `reconstruct::Metrics` itself needs `Deserialize` on it and its parts, in
-/// `reconstruct/mod.rs`: left for the change that owns that file, issue 12.)
-#[derive(Deserialize)]
-struct MetricsIn {
-    config_hash: String,
-    chamfer: Option<ChamferIn>,
-    psnr_heldout: Option<f64>,
-    ssim_heldout: Option<f64>,
-    train: TrainIn,
-    timings_s: TimingsIn,
-}
-
-#[derive(Deserialize)]
-struct ChamferIn {
-    mean_d2s: f64,
-    mean_s2d: f64,
-    overall: f64,
-    chamfer_sum: f64,
-}
-
-#[derive(Deserialize)]
-struct TrainIn {
-    iterations: u64,
-    resumed_from: Option<u64>,
-}
-
-#[derive(Deserialize)]
-struct TimingsIn {
-    load: f64,
-    prepare: f64,
-    train: f64,
-    mesh: f64,
-    eval: f64,
-    render: f64,
-    total: f64,
-}
 
 /// One collected run: the plan's description and what its `metrics.json` says. Distances in
 /// world mm, times in seconds.
@@ -145,7 +107,7 @@ pub fn load_records(dir: &Path) -> Result<(StudyPlan, Vec<RunRecord>), StudyErro
 fn read_record(dir: &Path, spec: &RunSpec) -> Result<RunRecord, StudyError> {
     let path = run_dir(dir, &spec.id).join("metrics.json");
     let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
-    let m: MetricsIn = serde_json::from_str(&text).map_err(|e| StudyError::Parse {
+    let m: Metrics = serde_json::from_str(&text).map_err(|e| StudyError::Parse {
         path: path.clone(),
         message: e.to_string(),
     })?;
