@@ -59,3 +59,32 @@ fn torus_hole_stays_open() {
     // The mesh that is written is the cleaned one, and it is in one piece.
     assert_eq!(m["mesh"]["components"].as_u64(), Some(1), "{m:#}");
 }
+
+/// A run whose SDF never crosses zero (a sphere init far below one marching-cubes cell, one step)
+/// finishes with a note instead of failing after training: `metrics.json` says the mesh is empty
+/// and has no Chamfer figure.
+#[test]
+fn an_empty_mesh_is_reported_not_a_failure() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = common::tiny::write_config(
+        tmp.path(),
+        1,
+        "[model.field.sdf]\nsphere_init_radius = 0.001\n",
+    );
+    let out = tmp.path().join("run");
+    let o = neus_aug()
+        .arg("reconstruct")
+        .arg(common::tiny::scene())
+        .args(["--config", cfg.to_str().unwrap(), "--quiet", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("the mesh is empty"), "{err}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    assert!(m["chamfer"].is_null(), "{m:#}");
+    assert!(m["eval_note"].as_str().unwrap().contains("empty"));
+    assert_eq!(m["mesh"]["faces"].as_u64(), Some(0));
+}

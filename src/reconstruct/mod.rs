@@ -637,6 +637,17 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             None,
             Some("evaluation disabled (eval.enabled = false)".to_string()),
         )
+    } else if mesh.faces.is_empty() {
+        // Nothing to score (the SDF never crossed zero in the box, or the clean-up removed
+        // everything): the run still reports what it did, and says why there is no Chamfer.
+        let note = format!(
+            "the mesh is empty ({} raw faces, {} after clean-up): no Chamfer distance; the \
+             surface was not recovered (see renders/ and mesh_raw.ply if present)",
+            topo_raw.faces,
+            mesh.faces.len()
+        );
+        eprintln!("warning: {note}");
+        (None, Some(note))
     } else {
         match find_gt(cfg, &scene_ref) {
             Err(note) => (None, Some(note)),
