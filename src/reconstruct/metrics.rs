@@ -5,7 +5,13 @@
 
 use super::config::Preset;
 use super::ResolvedScene;
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
+
+/// Reads a float that JSON may hold as `null`: `serde_json` writes NaN and ±∞ as `null` (a run
+/// that reused another's training has no final loss; a perfect render has an infinite PSNR).
+fn f64_or_nan<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
 
 /// Chamfer figures of the mesh (DTU protocol, world mm).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -29,6 +35,7 @@ pub struct ChamferMetrics {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ViewMetrics {
     pub view: usize,
+    #[serde(deserialize_with = "f64_or_nan")]
     pub psnr: f64,
     pub ssim: Option<f64>,
     /// Mean angle (degrees) between rendered and ground-truth normals where both see surface
@@ -57,11 +64,11 @@ pub struct Timings {
 pub struct TrainSummary {
     pub iterations: u64,
     pub resumed_from: Option<u64>,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "f64_or_nan")]
     pub final_loss: f64,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "f64_or_nan")]
     pub final_train_psnr: f64,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "f64_or_nan")]
     pub final_inv_s: f64,
     #[serde(default)]
     pub skipped_steps: u64,
@@ -69,7 +76,7 @@ pub struct TrainSummary {
     pub rays: u64,
     #[serde(default)]
     pub samples: u64,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "f64_or_nan")]
     pub samples_per_second: f64,
     #[serde(default)]
     pub train_views: usize,
@@ -148,6 +155,13 @@ mod tests {
             "timings_s":{"load":0,"prepare":0,"train":1,"mesh":0,"eval":0,"render":0,"total":1},
             "mesh":{"vertices":3,"faces":1,"boundary_edges":3,"non_manifold_edges":0,"components":1}}"#;
         let m: Metrics = serde_json::from_str(old).unwrap();
+        // NaN and ∞ are written as null and read back as NaN.
+        let reused = old.replace(
+            "\"resumed_from\":null",
+            "\"resumed_from\":null,\"final_loss\":null",
+        );
+        let r: Metrics = serde_json::from_str(&reused).unwrap();
+        assert!(r.train.final_loss.is_nan());
         assert_eq!(m.chamfer.as_ref().unwrap().chamfer_sum, 0.9);
         assert_eq!(
             (m.mesh.components, m.mesh.genus, m.train.iterations),
