@@ -192,48 +192,42 @@ pub fn mask_cull_filter(
         .iter()
         .map(|(_, m)| dilate_mask(m, dilate_px))
         .collect();
-    let culled: Vec<bool> = mesh
+    // Culled: some view sees the vertex inside its image, outside the dilated mask.
+    faces_with_all_vertices(mesh, |x| {
+        !views.iter().zip(&dilated).any(|((cam, m), d)| {
+            pixel_of(cam, x)
+                .is_some_and(|(px, py)| px < m.width && py < m.height && !d[py * m.width + px])
+        })
+    })
+}
+
+/// The pixel `(x, y)` whose square holds the projection of `x` (normalised space), `None` when
+/// the point is behind the camera or outside its image.
+fn pixel_of(cam: &Camera, x: &Vector3<f64>) -> Option<(usize, usize)> {
+    let (u, v, _) = cam.project(x)?;
+    (u >= 0.0 && v >= 0.0 && u < cam.width as f64 && v < cam.height as f64)
+        .then(|| (u.floor() as usize, v.floor() as usize))
+}
+
+/// Per face: whether `keep` holds for each of its three vertices.
+fn faces_with_all_vertices(mesh: &TriMesh, keep: impl Fn(&Vector3<f64>) -> bool) -> Vec<bool> {
+    let kept: Vec<bool> = mesh
         .vertices
         .iter()
-        .map(|v| {
-            let x = Vector3::from(v.map(|c| c as f64));
-            views.iter().zip(&dilated).any(|((cam, m), d)| {
-                let Some((u, vv, _)) = cam.project(&x) else {
-                    return false;
-                };
-                if !(u >= 0.0 && vv >= 0.0) {
-                    return false;
-                }
-                let (px, py) = (u.floor() as usize, vv.floor() as usize);
-                px < m.width && py < m.height && !d[py * m.width + px]
-            })
-        })
+        .map(|v| keep(&Vector3::from(v.map(|c| c as f64))))
         .collect();
     mesh.faces
         .iter()
-        .map(|f| f.iter().all(|&i| !culled[i as usize]))
+        .map(|f| f.iter().all(|&i| kept[i as usize]))
         .collect()
 }
 
 /// Per face: kept when each of its vertices projects inside the image of at least one camera
 /// (normalised space, in front of the camera).
 pub fn frustum_filter(mesh: &TriMesh, cameras: &[&Camera]) -> Vec<bool> {
-    let seen: Vec<bool> = mesh
-        .vertices
-        .iter()
-        .map(|v| {
-            let x = Vector3::from(v.map(|c| c as f64));
-            cameras.iter().any(|cam| {
-                cam.project(&x).is_some_and(|(u, vv, _)| {
-                    u >= 0.0 && vv >= 0.0 && u < cam.width as f64 && vv < cam.height as f64
-                })
-            })
-        })
-        .collect();
-    mesh.faces
-        .iter()
-        .map(|f| f.iter().all(|&i| seen[i as usize]))
-        .collect()
+    faces_with_all_vertices(mesh, |x| {
+        cameras.iter().any(|cam| pixel_of(cam, x).is_some())
+    })
 }
 
 /// Applies the clean-up rules (module docs) and reports what they removed. `views` pairs the

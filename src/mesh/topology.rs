@@ -56,6 +56,8 @@ impl TopologyReport {
         }
         half.sort_unstable();
         let (mut edges, mut boundary, mut non_manifold, mut misoriented) = (0, 0, 0, 0);
+        // Distinct undirected edges with the number of faces on each.
+        let mut distinct: Vec<(u64, usize)> = Vec::with_capacity(half.len() / 2 + 1);
         let mut s = 0;
         while s < half.len() {
             let mut e = s + 1;
@@ -63,6 +65,7 @@ impl TopologyReport {
                 e += 1;
             }
             edges += 1;
+            distinct.push((half[s].0, e - s));
             match e - s {
                 1 => boundary += 1,
                 2 => {
@@ -78,7 +81,7 @@ impl TopologyReport {
         let components = (0..nv)
             .filter(|&v| referenced[v] && uf.find(v) == v)
             .count();
-        let genus = Self::genus(mesh, &half, &referenced, &mut uf);
+        let genus = Self::genus(mesh, &distinct, &referenced, &mut uf);
         let boundary_loops = genus.1;
         let genus = genus.0;
         Self {
@@ -97,10 +100,11 @@ impl TopologyReport {
         }
     }
 
-    /// `(genus, boundary loops)` from the sorted half-edge keys (see the field docs).
+    /// `(genus, boundary loops)` from the distinct edges `(lo << 32 | hi, faces on it)` (see the
+    /// field docs).
     fn genus(
         mesh: &TriMesh,
-        half: &[(u64, bool)],
+        distinct: &[(u64, usize)],
         referenced: &[bool],
         uf: &mut UnionFind,
     ) -> (i64, usize) {
@@ -116,23 +120,14 @@ impl TopologyReport {
         }
         let mut loops = UnionFind::new(nv);
         let mut on_boundary = vec![false; nv];
-        let mut s = 0;
-        while s < half.len() {
-            let mut e = s + 1;
-            while e < half.len() && half[e].0 == half[s].0 {
-                e += 1;
-            }
-            let (a, b) = (
-                (half[s].0 >> 32) as usize,
-                (half[s].0 & 0xffff_ffff) as usize,
-            );
+        for &(key, faces) in distinct {
+            let (a, b) = ((key >> 32) as usize, (key & 0xffff_ffff) as usize);
             *chi.entry(uf.find(a)).or_default() -= 1;
-            if e - s == 1 {
+            if faces == 1 {
                 loops.union(a, b);
                 on_boundary[a] = true;
                 on_boundary[b] = true;
             }
-            s = e;
         }
         let mut b_per: HashMap<usize, i64> = HashMap::new();
         let mut n_loops = 0;
