@@ -545,17 +545,8 @@ fn bad9_eval_json_refuses_fifo_and_symlink() {
     let pts: Vec<[f32; 3]> = (0..20).map(|i| [i as f32, 0.0, 0.0]).collect();
     let a = tmp.path().join("a.ply");
     dtu_eval::ply::write_points(&a, &pts, None).unwrap();
-    let fifo = tmp.path().join("fifo");
-    assert!(Command::new("mkfifo")
-        .arg(&fifo)
-        .status()
-        .unwrap()
-        .success());
-    let target = tmp.path().join("t.json");
-    std::fs::write(&target, "keep").unwrap();
-    let link = tmp.path().join("link.json");
-    std::os::unix::fs::symlink(&target, &link).unwrap();
-    for (p, what) in [(&fifo, "FIFO"), (&link, "symbolic link")] {
+    let sp = dtu_eval::atomic::special_files::SpecialFiles::make(tmp.path());
+    for (p, what) in [(&sp.fifo, "FIFO"), (&sp.link, "symbolic link")] {
         let o = neus_aug()
             .args(["eval", "--mesh"])
             .arg(&a)
@@ -567,16 +558,7 @@ fn bad9_eval_json_refuses_fifo_and_symlink() {
             .unwrap();
         refused(&o, &[what, "refusing"]);
     }
-    use std::os::unix::fs::FileTypeExt;
-    assert!(std::fs::symlink_metadata(&fifo)
-        .unwrap()
-        .file_type()
-        .is_fifo());
-    assert!(std::fs::symlink_metadata(&link)
-        .unwrap()
-        .file_type()
-        .is_symlink());
-    assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
+    sp.assert_intact();
 }
 
 // ------------------------------------------------------------ BAD 10: synth --views is capped

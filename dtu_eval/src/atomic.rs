@@ -91,6 +91,48 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
     write_atomic_with(path, |w| w.write_all(bytes))
 }
 
+/// Test fixture shared by the unit and command-line tests of the writers (this crate's and
+/// neus-aug's): special files an output path may name, and the check that a refused write left
+/// them as they were. Unix only (`mkfifo`, symbolic links).
+#[doc(hidden)]
+#[cfg(unix)]
+pub mod special_files {
+    use std::path::{Path, PathBuf};
+
+    /// A FIFO, a regular file holding `keep`, and a symbolic link to that file, all in one folder.
+    pub struct SpecialFiles {
+        pub fifo: PathBuf,
+        pub target: PathBuf,
+        pub link: PathBuf,
+    }
+
+    impl SpecialFiles {
+        /// Makes them in `dir` (panics when `mkfifo` or the link fails: a test fixture).
+        pub fn make(dir: &Path) -> Self {
+            let fifo = dir.join("special.fifo");
+            let made = std::process::Command::new("mkfifo")
+                .arg(&fifo)
+                .status()
+                .expect("mkfifo runs");
+            assert!(made.success(), "mkfifo {}", fifo.display());
+            let target = dir.join("kept.json");
+            std::fs::write(&target, b"keep").unwrap();
+            let link = dir.join("link.json");
+            std::os::unix::fs::symlink(&target, &link).unwrap();
+            Self { fifo, target, link }
+        }
+
+        /// Panics unless the FIFO is still a FIFO, the link still a link, the file still `keep`.
+        pub fn assert_intact(&self) {
+            use std::os::unix::fs::FileTypeExt;
+            let kind = |p: &Path| std::fs::symlink_metadata(p).unwrap().file_type();
+            assert!(kind(&self.fifo).is_fifo(), "the FIFO was replaced");
+            assert!(kind(&self.link).is_symlink(), "the link was replaced");
+            assert_eq!(std::fs::read(&self.target).unwrap(), b"keep");
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -124,36 +166,15 @@ mod tests {
     #[test]
     fn refuses_fifo_symlink_and_folder() {
         let dir = tempfile::tempdir().unwrap();
-        let fifo = dir.path().join("fifo");
-        let made = std::process::Command::new("mkfifo")
-            .arg(&fifo)
-            .status()
-            .unwrap();
-        assert!(made.success());
-        let target = dir.path().join("target.txt");
-        std::fs::write(&target, b"keep").unwrap();
-        let link = dir.path().join("link");
-        std::os::unix::fs::symlink(&target, &link).unwrap();
+        let sp = special_files::SpecialFiles::make(dir.path());
+        let (fifo, link) = (&sp.fifo, &sp.link);
         let folder = dir.path().join("folder");
         std::fs::create_dir(&folder).unwrap();
-        for (p, what) in [
-            (&fifo, "FIFO"),
-            (&link, "symbolic link"),
-            (&folder, "folder"),
-        ] {
+        for (p, what) in [(fifo, "FIFO"), (link, "symbolic link"), (&folder, "folder")] {
             let e = write_atomic(p, b"x").unwrap_err().to_string();
             assert!(e.contains(what) && e.contains("refusing"), "{e}");
         }
-        use std::os::unix::fs::FileTypeExt;
-        assert!(std::fs::symlink_metadata(&fifo)
-            .unwrap()
-            .file_type()
-            .is_fifo());
-        assert!(std::fs::symlink_metadata(&link)
-            .unwrap()
-            .file_type()
-            .is_symlink());
-        assert_eq!(std::fs::read(&target).unwrap(), b"keep");
+        sp.assert_intact();
         // Only the four entries made above: no temporary left.
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 4);
         let e = write_atomic(Path::new("/dev/null"), b"x")

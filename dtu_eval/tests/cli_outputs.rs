@@ -36,16 +36,8 @@ fn stderr(o: &Output) -> String {
 fn json_output_refuses_fifo_symlink_and_device() {
     let dir = tempfile::tempdir().unwrap();
     let base = plain_args(dir.path());
-    let fifo = dir.path().join("report.fifo");
-    assert!(Command::new("mkfifo")
-        .arg(&fifo)
-        .status()
-        .unwrap()
-        .success());
-    let target = dir.path().join("kept.json");
-    std::fs::write(&target, "keep").unwrap();
-    let link = dir.path().join("link.json");
-    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let sp = dtu_eval::atomic::special_files::SpecialFiles::make(dir.path());
+    let (fifo, link) = (&sp.fifo, &sp.link);
     for (path, what) in [
         (fifo.as_path(), "FIFO"),
         (link.as_path(), "symbolic link"),
@@ -61,23 +53,14 @@ fn json_output_refuses_fifo_symlink_and_device() {
             "{what}: {err}"
         );
     }
-    use std::os::unix::fs::FileTypeExt;
-    assert!(std::fs::symlink_metadata(&fifo)
-        .unwrap()
-        .file_type()
-        .is_fifo());
-    assert!(std::fs::symlink_metadata(&link)
-        .unwrap()
-        .file_type()
-        .is_symlink());
-    assert_eq!(std::fs::read_to_string(&target).unwrap(), "keep");
+    sp.assert_intact();
     // A regular file is replaced as before.
     let mut args = base.clone();
-    args.extend(["--json".into(), target.display().to_string()]);
+    args.extend(["--json".into(), sp.target.display().to_string()]);
     let o = dtu_eval(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&target).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(&sp.target).unwrap()).unwrap();
     // Points 0.5 apart along y: both directed means are 0.5.
     assert!((v["mean_d2s"].as_f64().unwrap() - 0.5).abs() < 1e-6, "{v}");
 }
