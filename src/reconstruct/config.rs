@@ -757,6 +757,7 @@ impl RunConfig {
             ("rgb_mse", l.rgb_mse),
             ("eikonal", l.eikonal),
             ("mask", l.mask),
+            ("curvature", l.curvature),
         ] {
             if let Err(why) = w.check() {
                 return Err(invalid(&format!("model.loss.{k}"), w, why));
@@ -928,6 +929,15 @@ mod tests {
             &[parse_set("model.loss.mask=[0, 0.1, -1.0, 10]").unwrap()],
         );
         assert!(bad.unwrap_err().to_string().contains("model.loss.mask"));
+        let bad = resolve(
+            None,
+            None,
+            &[parse_set("model.loss.curvature=-0.5").unwrap()],
+        );
+        assert!(bad
+            .unwrap_err()
+            .to_string()
+            .contains("model.loss.curvature"));
     }
 
     #[test]
