@@ -5,6 +5,7 @@ mod field_common;
 
 use field_common::{batch, perturbed_params, seed, tiny_config};
 use neus_aug::render::NeusModel;
+use neus_aug::train::TrainStep;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -52,7 +53,7 @@ fn progressive_levels_gradient_matches_central_differences() {
     check_full_gradient(cfg);
 }
 
-fn check_full_gradient(cfg: neus_aug::render::ModelConfig) -> neus_aug::render::StepOutput {
+fn check_full_gradient(cfg: neus_aug::render::ModelConfig) -> neus_aug::train::StepOutput {
     let model = NeusModel::new(cfg).unwrap();
     let s = seed();
     let p32 = perturbed_params(&model, s);

@@ -5,8 +5,8 @@
 mod field_common;
 
 use field_common::{batch, perturbed_params, seed, tiny_config};
-use neus_aug::render::{NeusModel, OccupancyGrid, RayBatch, Targets};
-use neus_aug::train::{AdamW, AdamWConfig, OptimError};
+use neus_aug::render::{NeusModel, OccupancyGrid, RayBatch};
+use neus_aug::train::{AdamW, AdamWConfig, OptimError, Targets, TrainStep};
 
 fn all_finite(xs: &[f32]) -> bool {
     xs.iter().all(|v| v.is_finite())

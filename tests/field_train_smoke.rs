@@ -5,8 +5,8 @@
 mod field_common;
 
 use field_common::{batch, tiny_config};
-use neus_aug::render::{NeusModel, Targets};
-use neus_aug::train::{AdamW, AdamWConfig};
+use neus_aug::render::NeusModel;
+use neus_aug::train::{AdamW, AdamWConfig, Targets, TrainStep};
 
 #[test]
 fn a_few_steps_lower_the_loss() {

@@ -1,20 +1,27 @@
 //! Rendering a NeuS field: rays and box intersection ([`rays`]), the occupancy grid
-//! ([`occupancy`]), the NeuS alpha ([`alpha`]), compositing ([`composite`]), and the batched
-//! model forward/backward with the loss ([`model`]).
+//! ([`occupancy`]), the NeuS alpha ([`alpha`]), compositing ([`composite`]), the model's
+//! configuration ([`config`]) and its step-dependent values ([`schedule`]), and the model
+//! ([`model`]: public API, shard orchestration and reduction) whose batched forward/backward runs
+//! chunk by chunk, one function per phase (`step.rs`), on reused buffers (`workspace.rs`).
+//! The loss enters through the [`ray_loss::RayLoss`] interface; its implementation lives in
+//! `train::loss`, so nothing here knows about training.
 //!
 //! The renderer knows nothing about images or cameras: callers pass rays in the normalised space
 //! (object inside the unit sphere), f32, origins `[n][3]` and unit directions `[n][3]`.
 
 pub mod alpha;
 pub mod composite;
+pub mod config;
 pub mod model;
 pub mod occupancy;
+pub mod ray_loss;
 pub mod rays;
-pub mod scheduled;
+pub mod schedule;
+mod step;
+mod workspace;
 
-pub use model::{
-    LossConfig, LossWeights, MaskBce, ModelConfig, ModelError, NeusModel, PhaseTimes, RayBatch,
-    RenderConfig, RenderOutput, Schedule, StepOutput, Targets,
-};
+pub use config::{LossConfig, MaskBce, ModelConfig, RenderConfig};
+pub use model::{BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch, RenderOutput};
 pub use occupancy::{OccupancyConfig, OccupancyGrid};
-pub use scheduled::Scheduled;
+pub use ray_loss::{BatchCounts, RayLoss, SampleWeights};
+pub use schedule::{LossWeights, Schedule, Scheduled};

@@ -1,9 +1,12 @@
-//! Training: the optimiser ([`adam`]: AdamW with per-group learning rates and a NaN guard),
-//! step-dependent schedules, training rays, checkpoints, the training loop and image metrics.
+//! Training: the loss ([`loss`]: colour, mask and the regularisers' weights, behind the
+//! renderer's `RayLoss` interface), the optimiser ([`adam`]: AdamW with per-group learning rates
+//! and a NaN guard), the learning-rate schedule, training rays, checkpoints, the training loop
+//! (with the dynamic ray count) and image metrics.
 
 pub mod adam;
 pub mod checkpoint;
 pub mod data;
+pub mod loss;
 pub mod metrics;
 pub mod schedule;
 pub mod trainer;
@@ -11,4 +14,5 @@ pub mod trainer;
 pub use adam::{AdamW, AdamWConfig, OptimError};
 pub use checkpoint::TrainState;
 pub use data::{Batch, TrainData};
+pub use loss::{LossConfig, MaskBce, PixelLoss, StepOutput, Targets, TrainStep};
 pub use trainer::{StepReport, TrainConfig, TrainError, Trainer};

@@ -1,10 +1,10 @@
-//! Step-dependent values: the learning-rate schedule, and (re-exported from
-//! [`crate::render::scheduled`]) the reference's four-number schedule of loss weights.
+//! The optimiser's learning-rate multiplier over a run. The model's step-dependent values (loss
+//! weights, cos anneal, active levels, the four-number [`Scheduled`](crate::render::Scheduled))
+//! live in [`crate::render::schedule`].
 //!
 //! Every function takes the step explicitly; nothing here holds mutable state, so a resumed run
 //! sees exactly the values an uninterrupted run would.
 
-pub use crate::render::scheduled::Scheduled;
 use serde::{Deserialize, Serialize};
 
 /// The learning-rate multiplier: linear warm-up from `warmup_start` to 1 over `warmup_steps`,

@@ -5,8 +5,9 @@
 use super::adam::{AdamW, AdamWConfig, OptimError};
 use super::checkpoint::TrainState;
 use super::data::{Batch, TrainData};
+use super::loss::{StepOutput, Targets, TrainStep};
 use super::schedule::LrSchedule;
-use crate::render::model::{next_num_rays, ModelError, NeusModel, RayBatch, StepOutput, Targets};
+use crate::render::model::{ModelError, NeusModel, RayBatch};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
@@ -223,6 +224,20 @@ impl<'a> Trainer<'a> {
     }
 }
 
+/// The dynamic ray count of instant-nsr-pl (`systems/neus.py`, `training_step`): scale the ray
+/// count towards the sample budget, smooth 0.9/0.1, cap at `max_rays`.
+pub fn next_num_rays(
+    current: usize,
+    samples_used: usize,
+    sample_budget: usize,
+    max_rays: usize,
+) -> usize {
+    let used = samples_used.max(1) as f64;
+    let target = (current as f64 * (sample_budget as f64 / used)) as usize;
+    let next = (current as f64 * 0.9 + target as f64 * 0.1) as usize;
+    next.clamp(1, max_rays.max(1))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -242,5 +257,12 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn dynamic_ray_count() {
+        // Twice the budget used: move 10% of the way to half the rays.
+        assert_eq!(next_num_rays(1000, 2000, 1000, 8192), 950);
+        assert_eq!(next_num_rays(8000, 1, 1 << 20, 8192), 8192);
     }
 }

@@ -4,7 +4,8 @@
 
 use neus_aug::field::config::{AppearanceConfig, ColorMlpConfig, HashGridConfig, SdfMlpConfig};
 use neus_aug::field::FieldConfig;
-use neus_aug::render::{LossConfig, ModelConfig, NeusModel, RayBatch, RenderConfig, Targets};
+use neus_aug::render::{LossConfig, ModelConfig, NeusModel, RayBatch, RenderConfig};
+use neus_aug::train::Targets;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 

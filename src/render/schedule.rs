@@ -1,6 +1,11 @@
-//! A configuration value that may change with the training step, as instant-nsr-pl reads loss
-//! weights and annealing values. Nothing here holds state: the step is passed explicitly.
+//! Everything in the model's configuration that changes with the training step, in one place:
+//! the four-number [`Scheduled`] value (loss weights), and the values at one step
+//! ([`Schedule`]: cos anneal, active hash-grid levels, [`LossWeights`]) resolved from a
+//! [`ModelConfig`] by [`ModelConfig::schedule`]. The optimiser's learning-rate multiplier is the
+//! trainer's own (`train::schedule::LrSchedule`). Nothing here holds state: the step is
+//! passed explicitly, so a resumed run sees exactly the values an uninterrupted run would.
 
+use super::config::{LossConfig, ModelConfig};
 use serde::{Deserialize, Serialize};
 
 /// A value that may change with the training step, as instant-nsr-pl's `C()` helper reads
@@ -71,6 +76,65 @@ impl Scheduled {
 impl From<f64> for Scheduled {
     fn from(v: f64) -> Self {
         Scheduled::Constant(v)
+    }
+}
+
+/// The loss weights at one step (from [`LossConfig`] through [`ModelConfig::schedule`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LossWeights {
+    pub rgb_l1: f32,
+    pub rgb_mse: f32,
+    pub eikonal: f32,
+    pub mask: f32,
+    pub curvature: f32,
+}
+
+impl LossConfig {
+    /// The weights at `step`.
+    pub fn at(&self, step: u64) -> LossWeights {
+        LossWeights {
+            rgb_l1: self.rgb_l1.at(step) as f32,
+            rgb_mse: self.rgb_mse.at(step) as f32,
+            eikonal: self.eikonal.at(step) as f32,
+            mask: self.mask.at(step) as f32,
+            curvature: self.curvature.at(step) as f32,
+        }
+    }
+}
+
+/// Values that change with the training step, passed explicitly (no hidden schedule state).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Schedule {
+    /// Cos anneal ratio in `[0,1]` (`min(1, step/cos_anneal_end)`).
+    pub cos_anneal: f32,
+    /// Active hash-grid levels (progressive mask).
+    pub active_levels: usize,
+    /// Loss weights.
+    pub loss: LossWeights,
+}
+
+impl ModelConfig {
+    /// The schedule of instant-nsr-pl at `step` (`NeuSModel.update_step`).
+    pub fn schedule(&self, step: u64) -> Schedule {
+        let end = self.render.cos_anneal_end;
+        Schedule {
+            cos_anneal: if end == 0 {
+                1.0
+            } else {
+                (step as f64 / end as f64).min(1.0) as f32
+            },
+            active_levels: self.field.hash_grid.active_levels(step),
+            loss: self.loss.at(step),
+        }
+    }
+
+    /// The schedule used for inference: annealed, all scheduled levels at `step`.
+    pub fn inference_schedule(&self, step: u64) -> Schedule {
+        Schedule {
+            cos_anneal: 1.0,
+            active_levels: self.field.hash_grid.active_levels(step),
+            loss: self.loss.at(step),
+        }
     }
 }
 

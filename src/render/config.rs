@@ -1,0 +1,145 @@
+//! The model's configuration, `[model]` in the TOML config: the field's shapes
+//! ([`FieldConfig`]), rendering and sampling ([`RenderConfig`]) and the loss settings
+//! ([`LossConfig`]). Plain data with serde defaults; the values at a training step are resolved in
+//! [`super::schedule`], and the losses themselves are computed in `train::loss`.
+//!
+//! `LossConfig` is declared here, not in `train`, because it is a field of [`ModelConfig`], which
+//! the model ([`super::NeusModel::config`]) holds: moving it up would make `render` import
+//! `train`. Only the settings live here; every loss value and gradient is computed in `train`.
+
+use super::occupancy::OccupancyConfig;
+use super::schedule::Scheduled;
+use crate::field::FieldConfig;
+use serde::{Deserialize, Serialize};
+
+/// Rendering and sampling settings (instant-nsr-pl `configs/neus-dtu-wmask.yaml`, `model:`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RenderConfig {
+    /// Half-size of the marched box `[-r, r]³` in normalised units (1.0).
+    pub radius: f32,
+    /// Sets the march step `Δ = 1.732·2r / num_samples_per_ray` (1024).
+    pub num_samples_per_ray: usize,
+    /// Stratified jitter of each ray's first interval during training (true).
+    pub randomized: bool,
+    /// Background colour composited behind the object (white, `background_color: white`).
+    pub background: [f32; 3],
+    /// Steps over which the cos anneal ratio goes from 0 to 1 (20000; 0 = annealed from the
+    /// start).
+    pub cos_anneal_end: u64,
+    /// Initial value of the variance parameter `v`, `inv_s = exp(10·v)` (0.3).
+    pub variance_init: f32,
+    /// Empty-space skipping.
+    pub occupancy: OccupancyConfig,
+    /// Initial rays per batch of the dynamic ray count (256).
+    pub train_num_rays: usize,
+    /// Cap of the dynamic ray count (8192).
+    pub max_train_num_rays: usize,
+    /// Samples per work chunk (performance knob; results do not depend on it beyond rounding).
+    pub chunk_samples: usize,
+    /// Parallel gradient shards; 0 = rayon's thread count. Fix it to reproduce bits across
+    /// machines.
+    pub shards: usize,
+}
+
+impl Default for RenderConfig {
+    fn default() -> Self {
+        Self {
+            radius: 1.0,
+            num_samples_per_ray: 1024,
+            randomized: true,
+            background: [1.0, 1.0, 1.0],
+            cos_anneal_end: 20000,
+            variance_init: 0.3,
+            occupancy: OccupancyConfig::default(),
+            train_num_rays: 256,
+            max_train_num_rays: 8192,
+            chunk_samples: 256,
+            shards: 0,
+        }
+    }
+}
+
+/// Loss weights (instant-nsr-pl `systems/neus.py` `training_step` and the YAML's `system.loss`):
+/// `lambda_rgb_l1: 1`, `lambda_rgb_mse: 0`, `lambda_eikonal: 0.1`. The mask BCE weight is 0.1 as in
+/// ../shared/DESIGN.md §5 and instant-nsr-pl `neus-blender.yaml` / `neuralangelo-dtu-wmask.yaml`
+/// (`neus-dtu-wmask.yaml` itself sets 0.0 and only masks the target colours).
+///
+/// Each weight is a [`Scheduled`] value, as instant-nsr-pl reads its `lambda_*` through `C()`: a
+/// number, or `[start_step, start, end, end_step]` (e.g. `eikonal = [0, 0.1, 0.01, 5000]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LossConfig {
+    pub rgb_l1: Scheduled,
+    pub rgb_mse: Scheduled,
+    pub eikonal: Scheduled,
+    pub mask: Scheduled,
+    /// Curvature loss weight: mean `|Δf|` over samples, the Laplacian taken from the six
+    /// finite-difference taps and the centre (`Σ_k f(x ± ε e_k) − 6 f(x)) / ε²`), Neuralangelo
+    /// §3.2 (`projects/neuralangelo/utils/losses.py`, `curvature_loss`). 0 (off) by default.
+    pub curvature: Scheduled,
+    /// How the mask BCE keeps `log` finite (issue 13).
+    pub mask_bce: MaskBce,
+    /// NeuS-style colour loss (`exp_runner.py`): the colour error only inside the mask,
+    /// normalised by `3·Σ mask`, and no background colour composited. `false`: instant-nsr-pl
+    /// style, every ray's target composited on `render.background` where the mask is 0.
+    pub color_in_mask: bool,
+}
+
+/// How the mask BCE of the opacity `o ∈ [0, 1]` keeps its logarithms finite.
+///
+/// NeuS (`exp_runner.py`) and instant-nsr-pl (`systems/neus.py`) clip `o` to `[1e-3, 1 − 1e-3]`
+/// before `binary_cross_entropy`; the clip passes no gradient outside that range, so a surface
+/// that became fully opaque where the mask says background (the membrane across a hole) gets no
+/// gradient from the mask at all, and the colour network paints it with the background. Measured
+/// on the `torus` (issue 13): clip 5.49 mm, squash 0.73 mm at seed 0 (fast preset).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MaskBce {
+    /// `o' = clamp(o, 1e-3, 1 − 1e-3)`: the references' form, no gradient when saturated.
+    Clamp,
+    /// `o' = 1e-3 + (1 − 2·1e-3)·o`: an affine squash into the same range, differentiable
+    /// everywhere, gradient up to ~1000× the weight at saturation (the default).
+    Squash,
+}
+
+impl Default for LossConfig {
+    fn default() -> Self {
+        Self {
+            rgb_l1: Scheduled::Constant(1.0),
+            rgb_mse: Scheduled::Constant(0.0),
+            eikonal: Scheduled::Constant(0.1),
+            mask: Scheduled::Constant(0.1),
+            curvature: Scheduled::Constant(0.0),
+            mask_bce: MaskBce::Squash,
+            color_in_mask: false,
+        }
+    }
+}
+
+/// Everything that defines a model (sits in the TOML config as `[model]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModelConfig {
+    pub field: FieldConfig,
+    pub render: RenderConfig,
+    pub loss: LossConfig,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_round_trips_through_toml_and_rejects_unknown_keys() {
+        let c = ModelConfig::default();
+        let text = toml::to_string(&c).unwrap();
+        let back: ModelConfig = toml::from_str(&text).unwrap();
+        assert_eq!(back, c);
+        let partial: ModelConfig = toml::from_str("[field.hash_grid]\nn_levels = 8\n").unwrap();
+        assert_eq!(partial.field.hash_grid.n_levels, 8);
+        assert_eq!(partial.render, RenderConfig::default());
+        let err = toml::from_str::<ModelConfig>("[render]\nradiuss = 2.0\n").unwrap_err();
+        assert!(err.to_string().contains("radiuss"), "{err}");
+    }
+}

@@ -1,0 +1,203 @@
+//! Buffers of a training step and views of the flat parameter buffer: the per-shard
+//! [`Scratch`] vectors (every chunk's intermediate values, forward and backward), the
+//! [`WorkspaceCache`] that keeps them and the shards' gradient buffers between steps, and the
+//! per-group slices ([`Groups`], [`GroupsMut`]) of a parameter or gradient buffer.
+//!
+//! Shapes below: `n` samples in the chunk, `d` = encoding width (`HashGrid::output_dim`, xyz
+//! prefix + features), `f` = SDF network outputs (`sdf.feature_dim`; channel 0 is the SDF, the
+//! rest the geometry feature), `dc` = colour network input width (`FieldConfig::color_input_dim`),
+//! `wh`, `wc` = last hidden width of the SDF and colour networks. All rows are row-major.
+
+use super::alpha::AlphaGrad;
+use crate::field::mlp::MlpTape;
+use crate::field::{ParamLayout, Real};
+
+/// Buffers a training step keeps between calls so that it allocates and zeroes nothing of the
+/// parameter size: the gradient buffers of shards `1..` (all zero between steps; shard 0 adds
+/// into the caller's buffer) and each shard's scratch vectors.
+pub(super) struct StepWorkspace<T> {
+    pub(super) extra: Vec<Vec<T>>,
+    pub(super) scratch: Vec<Scratch<T>>,
+}
+
+impl<T> Default for StepWorkspace<T> {
+    fn default() -> Self {
+        Self {
+            extra: Vec::new(),
+            scratch: Vec::new(),
+        }
+    }
+}
+
+/// A cache holding at most one [`StepWorkspace`] (of whichever scalar type was used last).
+/// Taken out for the duration of a step and put back after it, so a step that panics drops it
+/// (no half-written buffer is ever reused) and concurrent steps on one model each get their own.
+/// Cloning a model gives the clone an empty cache. Holds about one gradient buffer per extra
+/// shard (56 MB per shard for the default network).
+#[derive(Default)]
+pub(super) struct WorkspaceCache(std::sync::Mutex<Option<Box<dyn std::any::Any + Send>>>);
+
+impl WorkspaceCache {
+    pub(super) fn take<T: Real>(&self) -> StepWorkspace<T> {
+        let cached = self.0.lock().ok().and_then(|mut g| g.take());
+        cached
+            .and_then(|b| b.downcast::<StepWorkspace<T>>().ok())
+            .map(|b| *b)
+            .unwrap_or_default()
+    }
+
+    pub(super) fn put<T: Real>(&self, ws: StepWorkspace<T>) {
+        if let Ok(mut g) = self.0.lock() {
+            *g = Some(Box::new(ws));
+        }
+    }
+}
+
+impl Clone for WorkspaceCache {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl std::fmt::Debug for WorkspaceCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("WorkspaceCache")
+    }
+}
+
+/// Mutable gradient views of each group.
+pub(super) struct GroupsMut<'a, T> {
+    pub(super) hash: &'a mut [T],
+    pub(super) sdf: &'a mut [T],
+    pub(super) color: &'a mut [T],
+    pub(super) var: &'a mut [T],
+    pub(super) app: &'a mut [T],
+}
+
+/// Read-only parameter views of each group.
+pub(super) struct Groups<'a, T> {
+    pub(super) hash: &'a [T],
+    pub(super) sdf: &'a [T],
+    pub(super) color: &'a [T],
+    pub(super) var: &'a [T],
+    pub(super) app: &'a [T],
+}
+
+/// Per-shard buffers, reused across chunks (resized, never shrunk; a phase overwrites what it
+/// reads later). Sample `i` of a chunk is its `i`-th sample in ray order.
+#[derive(Default)]
+pub(super) struct Scratch<T> {
+    /// `[n][3]` sample positions (interval midpoints), normalised space.
+    pub(super) points: Vec<[T; 3]>,
+    /// `[n][axis][+/−]` finite-difference tap coordinates `x_a ± ε`, clamped to the box.
+    pub(super) tap_points: Vec<[[T; 2]; 3]>,
+    /// `[n][3]` unit direction of each sample's ray.
+    pub(super) dirs: Vec<[T; 3]>,
+    /// `[n]` distance of each sample along its ray (normalised units), the `t` of compositing.
+    pub(super) ray_t: Vec<T>,
+    /// `[7n][d]` hash encodings: centres in rows `0..n`, taps in rows `n + 6i + k` ([`tap_rows`]).
+    pub(super) encoding: Vec<T>,
+    /// SDF network activations on all `7n` rows (input of its backward).
+    pub(super) sdf_tape: MlpTape<T>,
+    /// `[n][f]` SDF network outputs at the centres: SDF (channel 0) and geometry feature.
+    pub(super) sdf_feature: Vec<T>,
+    /// `[n][6]` SDF at the taps, `[axis][+/−]` (channel 0 only, from the hidden layer's epilogue).
+    pub(super) tap_sdf: Vec<T>,
+    /// `[n][3]` central-difference SDF gradient `∇f`.
+    pub(super) sdf_grad: Vec<[T; 3]>,
+    /// `[n][3]` normal `∇f / max(|∇f|, 1e-12)`.
+    pub(super) normal: Vec<[T; 3]>,
+    /// `[n][dc]` colour network input: feature, SH of the direction, normal, appearance code (and
+    /// scalar `p`).
+    pub(super) color_in: Vec<T>,
+    /// Colour network activations (input of its backward).
+    pub(super) color_tape: MlpTape<T>,
+    /// `[n][3]` colour network outputs before the sigmoid.
+    pub(super) color_logits: Vec<T>,
+    /// `[n][3]` sample colours, `sigmoid(color_logits)`.
+    pub(super) rgb: Vec<[T; 3]>,
+    /// `[n]` NeuS alpha of each sample.
+    pub(super) alpha: Vec<T>,
+    /// `[n]` partial derivatives of each alpha (SDF, cos, inv_s); zero when not training.
+    pub(super) alpha_grad: Vec<AlphaGrad<T>>,
+    /// `[n]` `∂L/∂alpha` from the compositing backward.
+    pub(super) d_alpha: Vec<T>,
+    /// `[n][3]` `∂L/∂rgb` of each sample colour.
+    pub(super) d_rgb: Vec<[T; 3]>,
+    /// `[n][3]` `∂L/∂color_logits`.
+    pub(super) d_color_logits: Vec<T>,
+    /// `[n][wc]` `∂L/∂` the colour network's last hidden layer (then its earlier layers, in place).
+    pub(super) d_color_hidden: Vec<T>,
+    /// `[n][dc]` `∂L/∂color_in`.
+    pub(super) d_color_in: Vec<T>,
+    /// `[n][f]` `∂L/∂sdf_feature`.
+    pub(super) d_sdf_feature: Vec<T>,
+    /// `[n][6]` `∂L/∂tap_sdf`.
+    pub(super) d_tap_sdf: Vec<T>,
+    /// `[7n][wh]` `∂L/∂` the SDF network's last hidden layer on all rows (then earlier layers).
+    pub(super) d_sdf_hidden: Vec<T>,
+    /// `[7n][d]` `∂L/∂encoding`; only the hash-grid columns are written.
+    pub(super) d_encoding: Vec<T>,
+    /// Work buffer of the MLP backward passes (no meaning between calls).
+    pub(super) mlp_work: Vec<T>,
+}
+
+/// Rows of sample `i`'s centre (row `i`) and taps (rows `n + 6i + k`) in the `[7n][d]` buffers.
+#[inline]
+pub(super) fn tap_rows(i: usize, n: usize, d: usize) -> [usize; 7] {
+    let b = n + 6 * i;
+    [
+        i * d,
+        b * d,
+        (b + 1) * d,
+        (b + 2) * d,
+        (b + 3) * d,
+        (b + 4) * d,
+        (b + 5) * d,
+    ]
+}
+
+/// Names of the parameter groups, in the order [`super::NeusModel::new`] lays them out.
+pub(super) const HASH_GRID: &str = "hash_grid";
+pub(super) const SDF_MLP: &str = "sdf_mlp";
+pub(super) const COLOR_MLP: &str = "color_mlp";
+pub(super) const VARIANCE: &str = "variance";
+pub(super) const APPEARANCE: &str = "appearance";
+
+/// The flat index range of the group `name` (every model layout has all five groups).
+pub(super) fn group(layout: &ParamLayout, name: &str) -> std::ops::Range<usize> {
+    layout
+        .group(name)
+        .unwrap_or_else(|| panic!("parameter group '{name}' missing from the layout"))
+        .range()
+}
+
+/// Read-only views of the groups of a parameter buffer.
+pub(super) fn split<'a, T>(layout: &ParamLayout, p: &'a [T]) -> Groups<'a, T> {
+    Groups {
+        hash: &p[group(layout, HASH_GRID)],
+        sdf: &p[group(layout, SDF_MLP)],
+        color: &p[group(layout, COLOR_MLP)],
+        var: &p[group(layout, VARIANCE)],
+        app: &p[group(layout, APPEARANCE)],
+    }
+}
+
+/// Mutable views of the groups of a parameter (or gradient) buffer.
+pub(super) fn split_mut<'a, T>(layout: &ParamLayout, p: &'a mut [T]) -> GroupsMut<'a, T> {
+    // The groups are contiguous in layout order: cut the buffer at each group's end.
+    let len = |name| group(layout, name).len();
+    debug_assert_eq!(group(layout, SDF_MLP).start, len(HASH_GRID));
+    let (hash, rest) = p.split_at_mut(len(HASH_GRID));
+    let (sdf, rest) = rest.split_at_mut(len(SDF_MLP));
+    let (color, rest) = rest.split_at_mut(len(COLOR_MLP));
+    let (var, rest) = rest.split_at_mut(len(VARIANCE));
+    let (app, _) = rest.split_at_mut(len(APPEARANCE));
+    GroupsMut {
+        hash,
+        sdf,
+        color,
+        var,
+        app,
+    }
+}
