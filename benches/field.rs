@@ -6,8 +6,9 @@
 //!    has (run time), and a STREAM-like triad bandwidth (`a = b + s·c`, 3 × 128 MB, all threads);
 //! 1. the machine's f32 FMA peak (the widest FMA chains the build has: AVX-512, AVX2+FMA or
 //!    portable `mul_add`, on every rayon thread, best of 3);
-//! 2. the MLP products: register kernels against `matrixmultiply` and the naive triple loop
-//!    (the peers measured in the same run), and the SDF hidden layer's parts;
+//! 2. the MLP products: every kernel of `field::dense` (the build's marked `*`) against
+//!    `matrixmultiply` and the naive triple loop (the peers measured in the same run), with the
+//!    build's kernel over `matrixmultiply` per shape, and the SDF hidden layer's parts;
 //! 3. SDF queries: the occupancy grid's warm-up update (all 128³ cells);
 //! 4. the whole training iteration as the training loop runs it, on a realistic batch: rays from
 //!    49 cameras around the unit sphere through a sphere SDF of radius 0.5, the occupancy grid
@@ -27,6 +28,7 @@
 //!
 //! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
 //! `NEUS_AUG_BENCH_QUICK=1` runs only the FMA peak and the default network's iteration;
+//! `NEUS_AUG_BENCH_MLP_ONLY=1` stops after the MLP products and the SDF layer's parts (0–2);
 //! `NEUS_AUG_CHUNK` overrides `chunk_samples`. Profiling aids (callgrind, no AVX-512 there: build
 //! with `RUSTFLAGS="-C target-cpu=x86-64-v3"`): `NEUS_AUG_BENCH_HASH_ONLY=<log2 T>` runs only the
 //! hash-grid paths, `NEUS_AUG_BENCH_STEP_ONLY=1` two small training steps.
@@ -36,10 +38,10 @@
 #[global_allocator]
 static ALLOC: neus_aug::field::alloc::LargeAligned = neus_aug::field::alloc::LargeAligned;
 
-use neus_aug::render::model::next_num_rays;
 use neus_aug::render::rays::march_rays;
-use neus_aug::render::{ModelConfig, NeusModel, OccupancyGrid, PhaseTimes, RayBatch, Targets};
-use neus_aug::train::{AdamW, AdamWConfig};
+use neus_aug::render::{ModelConfig, NeusModel, OccupancyGrid, PhaseTimes, RayBatch};
+use neus_aug::train::trainer::next_num_rays;
+use neus_aug::train::{AdamW, AdamWConfig, Targets, TrainStep};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -193,8 +195,8 @@ fn triad_bandwidth() -> f64 {
     best
 }
 
-/// FLOPs of independent FMA chains on one thread (16 accumulators hide the latency; the width
-/// is the build's: [`fma_isa`]).
+/// FLOPs of independent FMA chains on one thread (16 AVX-512 or 12 eight-lane accumulators hide
+/// the latency; the width is the build's: [`fma_isa`]).
 fn fma_thread(iters: u64) -> f64 {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
     unsafe {
@@ -216,7 +218,10 @@ fn fma_thread(iters: u64) -> f64 {
     }
     #[allow(unreachable_code)]
     {
-        let mut acc = [[0f32; 8]; 16];
+        // 12 chains of 8 lanes: with the two constants that is 14 of AVX2's 16 `ymm` registers
+        // (16 chains would spill and halve the figure); still more than the 2 FMA pipes × 4
+        // cycles of latency a core needs in flight.
+        let mut acc = [[0f32; 8]; 12];
         for _ in 0..iters {
             for v in acc.iter_mut() {
                 for x in v.iter_mut() {
@@ -225,7 +230,7 @@ fn fma_thread(iters: u64) -> f64 {
             }
         }
         black_box(acc);
-        (iters * 16 * 8 * 2) as f64
+        (iters * 12 * 8 * 2) as f64
     }
 }
 
@@ -336,24 +341,37 @@ fn sdf_layer_parts() {
     );
 }
 
+/// The MLP products on one thread: each [`Kernel`](neus_aug::field::dense::Kernel) (the build's
+/// marked `*`; `matrixmultiply` is the peer the dispatch rule is judged against) and the naive
+/// triple loop, runs interleaved so that load on the machine hits them alike; best of 5. The last
+/// column is the build's kernel over `matrixmultiply` (≥ 0.90 is the target on every shape).
 fn gemm_compare(peak: f64) {
-    use neus_aug::field::dense::{gemm, gemm_reference, Strided};
+    use neus_aug::field::dense::{gemm_then_with, Init, Kernel, Strided, KERNEL};
     let threads = rayon::current_num_threads() as f64;
+    let per_core = peak / threads / 1e9;
     let mut rng = Pcg64Mcg::seed_from_u64(1);
     println!(
-        "\n== MLP products, one thread, f32, GFLOP/s (best of 5 runs; per-core FMA peak {:.0}) ==",
-        peak / threads / 1e9
+        "\n== MLP products, one thread, f32, GFLOP/s (% of the per-core FMA peak {per_core:.0}), best of 5; build kernel: {KERNEL:?} =="
     );
-    println!("  shape                          register kernel  matrixmultiply  naive loops");
+    let names: Vec<String> = Kernel::ALL
+        .iter()
+        .map(|k| format!("{}{k:?}", if *k == KERNEL { "*" } else { "" }))
+        .collect();
+    println!(
+        "  {:<30} {:>15} {:>15} {:>15} {:>7}  build/mm",
+        "shape", names[0], names[1], names[2], "naive"
+    );
+    let mut worst = f64::MAX;
     for &(m, k, n, tr, name) in &[
         (3584usize, 35usize, 64usize, false, "fwd  [3584 x 35] -> 64"),
         (512, 64, 64, false, "fwd  [512 x 64] -> 64"),
         (3584, 64, 32, false, "dX   [3584 x 64] -> 32"),
         (35, 3584, 64, true, "dW   64 x 35 over 3584 rows"),
-        (512, 64, 13, false, "fwd  [512 x 64] -> 13"),
+        (512, 64, 16, false, "fwd  [512 x 64] -> 13 (16)"),
         (512, 35, 64, false, "fwd  [512 x 35] -> 64"),
         (3584, 64, 64, false, "fwd  [3584 x 64] -> 64"),
         (36, 3584, 64, true, "dW   64 x 36 over 3584 rows"),
+        (64, 512, 16, true, "dW   16 x 64 over 512 rows"),
     ] {
         let a: Vec<f32> = (0..m * k).map(|_| rng.random_range(-1.0..1.0)).collect();
         let b: Vec<f32> = (0..k * n).map(|_| rng.random_range(-1.0..1.0)).collect();
@@ -365,15 +383,16 @@ fn gemm_compare(peak: f64) {
         };
         let flops = 2.0 * (m * k * n) as f64;
         let reps = (4e9 / flops).ceil() as usize;
-        let mut g = [0.0f64; 3];
-        for (v, gv) in g.iter_mut().enumerate() {
-            let reps = if v == 2 { reps.div_ceil(32) } else { reps };
-            // Best of 5 wall-clock runs (~20 ms each): robust to preemption by other load.
-            for _ in 0..5 {
+        let mut g = [0.0f64; 4];
+        // Five rounds, each timing every variant once (~20 ms each).
+        for _ in 0..5 {
+            for (v, gv) in g.iter_mut().enumerate() {
+                let reps = if v == 3 { reps.div_ceil(32) } else { reps };
                 let t = Instant::now();
                 for _ in 0..reps {
-                    match v {
-                        0 => gemm(
+                    if v < 3 {
+                        gemm_then_with(
+                            Kernel::ALL[v],
                             m,
                             k,
                             n,
@@ -382,18 +401,17 @@ fn gemm_compare(peak: f64) {
                             n,
                             &mut c,
                             n,
-                            neus_aug::field::dense::Init::Zero,
-                        ),
-                        1 => gemm_reference(m, k, n, sa, &b, n, &mut c, n, false),
-                        _ => {
-                            for i in 0..m {
-                                for j in 0..n {
-                                    let mut s = 0.0;
-                                    for kk in 0..k {
-                                        s += a[i * sa.rs + kk * sa.cs] * b[kk * n + j];
-                                    }
-                                    c[i * n + j] = s;
+                            Init::Zero,
+                            |_, _| {},
+                        );
+                    } else {
+                        for i in 0..m {
+                            for j in 0..n {
+                                let mut s = 0.0;
+                                for kk in 0..k {
+                                    s += a[i * sa.rs + kk * sa.cs] * b[kk * n + j];
                                 }
+                                c[i * n + j] = s;
                             }
                         }
                     }
@@ -402,15 +420,22 @@ fn gemm_compare(peak: f64) {
                 *gv = gv.max(flops * reps as f64 / t.elapsed().as_secs_f64() / 1e9);
             }
         }
+        let build = g[Kernel::ALL.iter().position(|&k| k == KERNEL).unwrap_or(2)];
+        let ratio = build / g[2];
+        worst = worst.min(ratio);
         println!(
-            "  {name:<30} {:7.1} ({:3.0}%)   {:7.1} ({:3.0}%)   {:7.1}",
+            "  {name:<30} {:7.1} ({:3.0}%) {:7.1} ({:3.0}%) {:7.1} ({:3.0}%) {:7.1}  {:.2}",
             g[0],
-            100.0 * g[0] * threads / (peak / 1e9),
+            100.0 * g[0] / per_core,
             g[1],
-            100.0 * g[1] * threads / (peak / 1e9),
-            g[2]
+            100.0 * g[1] / per_core,
+            g[2],
+            100.0 * g[2] / per_core,
+            g[3],
+            ratio
         );
     }
+    println!("  worst build/matrixmultiply ratio over these shapes: {worst:.2}");
 }
 
 /// MLP multiply-adds per sample, forward and backward as `train_step` computes them: SDF hidden
@@ -956,6 +981,9 @@ fn main() {
     if !quick {
         gemm_compare(peak);
         sdf_layer_parts();
+    }
+    if std::env::var("NEUS_AUG_BENCH_MLP_ONLY").is_ok() {
+        return;
     }
 
     // The default network (DESIGN §5).

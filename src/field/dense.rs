@@ -3,11 +3,31 @@
 //!
 //! One micro-kernel serves every product: `C[i][0..N] (+)= Σ_k a(i, k) · B[k][0..N]`, where
 //! `a(i, k) = A[i·rs + k·cs]` may be strided either way and `B` rows are contiguous. `R` rows of
-//! `C` stay in registers (`R × N/16` vectors for `f32` with AVX-512) while `k` runs, each step
-//! broadcasting `R` values of `A` against one row of `B`. With `N` fixed at compile time the
-//! compiler keeps the accumulators in registers and turns the row loop into vector FMAs; no
-//! packing, no allocation. Widths without a specialisation go to [`Real::gemm`]
-//! (`matrixmultiply`), which is also the reference the tests compare against.
+//! `C` stay in registers while `k` runs, each step broadcasting `R` values of `A` against one row
+//! (or one `P`-wide panel of a row) of `B`. With `N`, `P`, `R` fixed at compile time the compiler
+//! keeps the accumulators in registers and turns the row loop into vector FMAs; no packing, no
+//! allocation. An epilogue `f(i, row)` sees each finished row before it is stored (the MLPs fuse
+//! their activation and its derivative there).
+//!
+//! # Which kernel a build uses ([`KERNEL`], fixed at compile time by `target_feature`)
+//!
+//! | build | [`Kernel`] | why |
+//! |---|---|---|
+//! | x86-64 with AVX-512 (`target-cpu=native` on Zen 4, Skylake-X, …) | [`Kernel::WideTiles`] | the whole `6 × 64` (`8 × 32`, `8 × 16`) tile in 24–32 of the 32 `zmm` registers |
+//! | x86-64 with AVX2 + FMA, no AVX-512 (Zen 2/3, Haswell … Alder Lake, `x86-64-v3`) | [`Kernel::PanelTiles`] | the wide tiles need 48 `ymm` accumulators for `N` = 64 and spill; `6 × 16` panels use 12 of the 16, and sums longer than 256 go in `k` chunks that stay in L2 |
+//! | anything else (`x86-64-v2`, no target flags, aarch64, …) | [`Kernel::MatrixMultiply`] | `matrixmultiply` picks its own kernel at run time (AVX-512, AVX2+FMA, AVX, SSE2, NEON), so a portable binary still gets the CPU's vector units; portable Rust compiled for SSE2 or unmeasured NEON would not do better |
+//!
+//! Widths other than 16/32/64 always go to `matrixmultiply` ([`Real::gemm`]), which is also the
+//! reference every kernel is tested against, on every build ([`gemm_then_with`] runs any kernel
+//! anywhere: they are all portable Rust, only their register shape targets one ISA).
+//!
+//! Measured with `cargo bench --bench field` (`NEUS_AUG_BENCH_MLP_ONLY=1` for this part), one
+//! thread, f32, AMD EPYC Zen 4, the machine under load from other jobs (indicative; the bench
+//! prints every kernel beside `matrixmultiply` in the same run): x86-64-v3 build, panel tiles
+//! 79–113 GFLOP/s (68–97 % of the 8-wide FMA peak) against `matrixmultiply` 46–87 GFLOP/s,
+//! ratio 1.19–2.48 over the nine listed shapes, the wide tiles 54–67 GFLOP/s there (spilling);
+//! native AVX-512 build, wide tiles 111–117 GFLOP/s (96–101 %), panel tiles 80–115,
+//! `matrixmultiply` 47–85, ratio 1.36–2.37.
 //!
 //! Generic over [`Real`]: the `f64` gradient checks run the same code.
 
@@ -56,6 +76,50 @@ pub enum Init<'a, T> {
     Bias(&'a [T]),
 }
 
+/// The implementations of the width-16/32/64 products (see the module docs for which build
+/// uses which, and why).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// The whole `R × N` tile of `C` in registers (`N` = 64, 32, 16 with `R` = 6, 8, 8): 24–32
+    /// accumulators, which needs the 32 vector registers of AVX-512.
+    WideTiles,
+    /// 6 rows × 16 columns at a time (12 accumulators, two `B` vectors and a broadcast for `f32`
+    /// on AVX2's 16 `ymm` registers), panel by panel; the epilogue runs on the finished rows
+    /// parked in L1.
+    PanelTiles,
+    /// `matrixmultiply` (its own run-time ISA dispatch: AVX-512, AVX2+FMA, AVX, SSE2, NEON, …)
+    /// with the epilogue on the stored rows.
+    MatrixMultiply,
+}
+
+impl Kernel {
+    /// Every kernel, for tests and the bench.
+    pub const ALL: [Kernel; 3] = [
+        Kernel::WideTiles,
+        Kernel::PanelTiles,
+        Kernel::MatrixMultiply,
+    ];
+
+    /// Whether this kernel has a register path for output width `n` (else `n` goes to
+    /// `matrixmultiply`).
+    pub fn specialises(self, n: usize) -> bool {
+        self != Kernel::MatrixMultiply && matches!(n, 16 | 32 | 64)
+    }
+}
+
+/// The kernel this build uses, chosen from the target features it is compiled for.
+pub const KERNEL: Kernel = if cfg!(all(target_arch = "x86_64", target_feature = "avx512f")) {
+    Kernel::WideTiles
+} else if cfg!(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma"
+)) {
+    Kernel::PanelTiles
+} else {
+    Kernel::MatrixMultiply
+};
+
 /// `C[i][0..n] = init + Σ_{k<kk} a(i, k) · B[k][0..n]` for `i < m`; `B` row `k` at
 /// `b[k·ldb..]`, `C` row `i` at `c[i·ldc..]`.
 #[allow(clippy::too_many_arguments)]
@@ -87,6 +151,27 @@ pub fn gemm_then<T: Real, F: FnMut(usize, &mut [T])>(
     c: &mut [T],
     ldc: usize,
     init: Init<T>,
+    f: F,
+) {
+    gemm_then_with(KERNEL, m, kk, n, a, b, ldb, c, ldc, init, f);
+}
+
+/// [`gemm_then`] through a named [`Kernel`] rather than the build's [`KERNEL`]: every kernel is
+/// portable Rust, so the tests and the bench can run all of them on any build (a kernel meant for
+/// another ISA is correct here, only not fast). Widths other than 16/32/64 always take the
+/// [`Kernel::MatrixMultiply`] path.
+#[allow(clippy::too_many_arguments)]
+pub fn gemm_then_with<T: Real, F: FnMut(usize, &mut [T])>(
+    kernel: Kernel,
+    m: usize,
+    kk: usize,
+    n: usize,
+    a: Strided<T>,
+    b: &[T],
+    ldb: usize,
+    c: &mut [T],
+    ldc: usize,
+    init: Init<T>,
     mut f: F,
 ) {
     if m == 0 || n == 0 {
@@ -101,10 +186,20 @@ pub fn gemm_then<T: Real, F: FnMut(usize, &mut [T])>(
     if let Init::Bias(bias) = init {
         assert!(bias.len() >= n, "bias too short");
     }
-    match n {
-        64 => blocks::<T, F, 64, 6>(m, kk, a, b, ldb, c, ldc, init, &mut f),
-        32 => blocks::<T, F, 32, 8>(m, kk, a, b, ldb, c, ldc, init, &mut f),
-        16 => blocks::<T, F, 16, 8>(m, kk, a, b, ldb, c, ldc, init, &mut f),
+    let f = &mut f;
+    match (kernel, n) {
+        (Kernel::WideTiles, 64) => blocks::<T, F, 64, 64, 6, 0>(m, kk, a, b, ldb, c, ldc, init, f),
+        (Kernel::WideTiles, 32) => blocks::<T, F, 32, 32, 8, 0>(m, kk, a, b, ldb, c, ldc, init, f),
+        (Kernel::WideTiles, 16) => blocks::<T, F, 16, 16, 8, 0>(m, kk, a, b, ldb, c, ldc, init, f),
+        (Kernel::PanelTiles, 64) => {
+            blocks::<T, F, 64, 16, 6, 256>(m, kk, a, b, ldb, c, ldc, init, f)
+        }
+        (Kernel::PanelTiles, 32) => {
+            blocks::<T, F, 32, 16, 6, 256>(m, kk, a, b, ldb, c, ldc, init, f)
+        }
+        (Kernel::PanelTiles, 16) => {
+            blocks::<T, F, 16, 16, 6, 256>(m, kk, a, b, ldb, c, ldc, init, f)
+        }
         _ => {
             if let Init::Bias(bias) = init {
                 for i in 0..m {
@@ -172,9 +267,66 @@ pub fn gemm_reference<T: Real>(
     }
 }
 
+/// All rows of `C`, with the sum over `k` cut into chunks of `KC` (0: one chunk) when it is
+/// longer: the weight gradients sum over thousands of rows, and a chunk of `A` and `B`
+/// (`KC × N` of `B`, 64 KB for `f32` at `KC` = 256, `N` = 64) stays in L2 while every row
+/// block sweeps it, instead of streaming all of `B` from L3 once per row block. `C` carries the
+/// partial sums between chunks; each output still adds its terms in the order `k = 0, 1, …`
+/// with the same roundings, so the result is bit-identical to one chunk. The epilogue runs on
+/// the last chunk only.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn blocks<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const R: usize>(
+fn blocks<
+    T: Real,
+    F: FnMut(usize, &mut [T]),
+    const N: usize,
+    const P: usize,
+    const R: usize,
+    const KC: usize,
+>(
+    m: usize,
+    kk: usize,
+    a: Strided<T>,
+    b: &[T],
+    ldb: usize,
+    c: &mut [T],
+    ldc: usize,
+    init: Init<T>,
+    f: &mut F,
+) {
+    if KC == 0 || kk <= KC {
+        row_blocks::<T, F, N, P, R>(m, kk, a, b, ldb, c, ldc, init, f);
+        return;
+    }
+    let mut k0 = 0;
+    while k0 < kk {
+        let k1 = (k0 + KC).min(kk);
+        let ak = Strided {
+            data: &a.data[k0 * a.cs..],
+            rs: a.rs,
+            cs: a.cs,
+        };
+        let bk = &b[k0 * ldb..];
+        let init_k = if k0 == 0 { init } else { Init::Accumulate };
+        if k1 == kk {
+            row_blocks::<T, F, N, P, R>(m, k1 - k0, ak, bk, ldb, c, ldc, init_k, f);
+        } else {
+            let mut none = |_: usize, _: &mut [T]| {};
+            row_blocks::<T, _, N, P, R>(m, k1 - k0, ak, bk, ldb, c, ldc, init_k, &mut none);
+        }
+        k0 = k1;
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn row_blocks<
+    T: Real,
+    F: FnMut(usize, &mut [T]),
+    const N: usize,
+    const P: usize,
+    const R: usize,
+>(
     m: usize,
     kk: usize,
     a: Strided<T>,
@@ -187,7 +339,7 @@ fn blocks<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const R: usize>(
 ) {
     let mut i0 = 0;
     while i0 + R <= m {
-        tile::<T, F, N, R>(i0, kk, a, b, ldb, c, ldc, init, f);
+        tile::<T, F, N, P, R>(i0, kk, a, b, ldb, c, ldc, init, f);
         i0 += R;
     }
     // Remaining rows, as few passes over B as possible.
@@ -196,10 +348,10 @@ fn blocks<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const R: usize>(
         ($($r:literal)*) => {
             match rest {
                 0 => {}
-                $($r => tile::<T, F, N, $r>(i0, kk, a, b, ldb, c, ldc, init, f),)*
+                $($r if $r < R => tile::<T, F, N, P, $r>(i0, kk, a, b, ldb, c, ldc, init, f),)*
                 _ => {
                     for i in i0..m {
-                        tile::<T, F, N, 1>(i, kk, a, b, ldb, c, ldc, init, f);
+                        tile::<T, F, N, P, 1>(i, kk, a, b, ldb, c, ldc, init, f);
                     }
                 }
             }
@@ -208,10 +360,13 @@ fn blocks<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const R: usize>(
     rest!(1 2 3 4 5 6 7);
 }
 
-/// Rows `i0..i0+R` of `C`.
+/// Rows `i0..i0+R` of `C`, in column panels of width `P` (`P` divides `N`). With `P = N` the
+/// whole `R × N` tile stays in registers while `k` runs and the epilogue sees it there. With
+/// `P < N` each panel's `R × P` accumulators stay in registers for the whole `k` loop and are
+/// then parked in an `R × N` stack buffer (L1), which the epilogue sees once every panel is done.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const R: usize>(
+fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const P: usize, const R: usize>(
     i0: usize,
     kk: usize,
     a: Strided<T>,
@@ -222,17 +377,18 @@ fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const R: usize>(
     init: Init<T>,
     f: &mut F,
 ) {
-    let mut acc = [[T::ZERO; N]; R];
+    const { assert!(P > 0 && N.is_multiple_of(P)) };
+    let mut out = [[T::ZERO; N]; R];
     match init {
         Init::Zero => {}
         Init::Accumulate => {
             for r in 0..R {
-                acc[r].copy_from_slice(&c[(i0 + r) * ldc..(i0 + r) * ldc + N]);
+                out[r].copy_from_slice(&c[(i0 + r) * ldc..(i0 + r) * ldc + N]);
             }
         }
         Init::Bias(bias) => {
             for r in 0..R {
-                acc[r].copy_from_slice(&bias[..N]);
+                out[r].copy_from_slice(&bias[..N]);
             }
         }
     }
@@ -241,19 +397,43 @@ fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const R: usize>(
         assert!((i0 + R - 1) * a.rs + (kk - 1) * a.cs < a.data.len());
         assert!((kk - 1) * ldb + N <= b.len());
     }
-    for k in 0..kk {
-        // SAFETY: `k·ldb + N ≤ b.len()` and `(i0+r)·rs + k·cs < a.len()` by the asserts above.
-        let brow: &[T; N] = unsafe { &*(b.as_ptr().add(k * ldb) as *const [T; N]) };
-        for r in 0..R {
-            let x = unsafe { *a.data.get_unchecked((i0 + r) * a.rs + k * a.cs) };
-            for j in 0..N {
-                acc[r][j] = x.fma(brow[j], acc[r][j]);
+    if P == N {
+        // `out` itself is the register tile.
+        for k in 0..kk {
+            // SAFETY: `k·ldb + N ≤ b.len()` and `(i0+r)·rs + k·cs < a.len()` by the asserts.
+            let brow: &[T; N] = unsafe { &*(b.as_ptr().add(k * ldb) as *const [T; N]) };
+            for r in 0..R {
+                let x = unsafe { *a.data.get_unchecked((i0 + r) * a.rs + k * a.cs) };
+                for j in 0..N {
+                    out[r][j] = x.fma(brow[j], out[r][j]);
+                }
+            }
+        }
+    } else {
+        for p0 in (0..N).step_by(P) {
+            let mut acc = [[T::ZERO; P]; R];
+            for r in 0..R {
+                acc[r].copy_from_slice(&out[r][p0..p0 + P]);
+            }
+            for k in 0..kk {
+                // SAFETY: `k·ldb + p0 + P ≤ k·ldb + N ≤ b.len()` and
+                // `(i0+r)·rs + k·cs < a.len()` by the asserts above.
+                let brow: &[T; P] = unsafe { &*(b.as_ptr().add(k * ldb + p0) as *const [T; P]) };
+                for r in 0..R {
+                    let x = unsafe { *a.data.get_unchecked((i0 + r) * a.rs + k * a.cs) };
+                    for j in 0..P {
+                        acc[r][j] = x.fma(brow[j], acc[r][j]);
+                    }
+                }
+            }
+            for r in 0..R {
+                out[r][p0..p0 + P].copy_from_slice(&acc[r]);
             }
         }
     }
     for r in 0..R {
-        f(i0 + r, &mut acc[r]);
-        c[(i0 + r) * ldc..(i0 + r) * ldc + N].copy_from_slice(&acc[r]);
+        f(i0 + r, &mut out[r]);
+        c[(i0 + r) * ldc..(i0 + r) * ldc + N].copy_from_slice(&out[r]);
     }
 }
 
@@ -263,55 +443,181 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
-    /// Every specialised width and the fallback, both operand orientations, accumulate or not,
-    /// row counts that leave a remainder, against `matrixmultiply`.
+    /// Random `A`, `B`, `C` (padded leading dimensions, a spare element after `A`).
+    #[allow(clippy::type_complexity)]
+    fn operands<T: Real>(
+        rng: &mut Pcg64Mcg,
+        m: usize,
+        kk: usize,
+        n: usize,
+    ) -> (Vec<T>, Vec<T>, Vec<T>, Vec<T>) {
+        let mut v = |len: usize| -> Vec<T> {
+            (0..len)
+                .map(|_| T::from_f64(rng.random_range(-1.0..1.0)))
+                .collect()
+        };
+        let (ldb, ldc) = (n + 3, n + 2);
+        (v(m * kk + 1), v(kk * ldb), v(m * ldc), v(n))
+    }
+
+    const SHAPES: [(usize, usize, usize); 14] = [
+        (13, 35, 64),
+        (7, 64, 32),
+        (35, 100, 64),
+        (5, 9, 16),
+        (6, 7, 13),
+        (1, 1, 64),
+        (4, 0, 32),
+        (12, 5, 64),
+        (11, 3, 32),
+        (17, 64, 16),
+        (23, 35, 64),
+        (9, 40, 32),
+        // Longer than one chunk of the panel kernel's k loop (256), with a remainder.
+        (35, 600, 64),
+        (13, 515, 32),
+    ];
+
+    /// Every kernel (the build's and the others), every specialised width and the fallback, both
+    /// operand orientations, every [`Init`], row counts that leave each remainder, in `f64`
+    /// against `matrixmultiply`; the epilogue sees each row once, finished.
     #[test]
     fn kernels_match_matrixmultiply() {
         let mut rng = Pcg64Mcg::seed_from_u64(31);
         let mut worst = 0.0f64;
-        for &(m, kk, n) in &[
-            (13usize, 35usize, 64usize),
-            (7, 64, 32),
-            (35, 100, 64),
-            (5, 9, 16),
-            (6, 7, 13),
-            (1, 1, 64),
-            (4, 0, 32),
-            (12, 5, 64),
-            (11, 3, 32),
-        ] {
-            for transposed in [false, true] {
-                for accumulate in [false, true] {
-                    let a: Vec<f64> = (0..m * kk + 1)
-                        .map(|_| rng.random_range(-1.0..1.0))
-                        .collect();
-                    let ldb = n + 3;
-                    let b: Vec<f64> = (0..kk * ldb).map(|_| rng.random_range(-1.0..1.0)).collect();
-                    let ldc = n + 2;
-                    let c0: Vec<f64> = (0..m * ldc).map(|_| rng.random_range(-1.0..1.0)).collect();
-                    let sa = if transposed {
-                        Strided::transposed(&a[..], m)
-                    } else {
-                        Strided::row_major(&a[..], kk)
-                    };
-                    let mut c1 = c0.clone();
-                    let mut c2 = c0.clone();
-                    let init = if accumulate {
-                        Init::Accumulate
-                    } else {
-                        Init::Zero
-                    };
-                    gemm(m, kk, n, sa, &b, ldb, &mut c1, ldc, init);
-                    gemm_reference(m, kk, n, sa, &b, ldb, &mut c2, ldc, accumulate);
-                    for i in 0..m {
-                        for j in 0..ldc {
-                            let d = (c1[i * ldc + j] - c2[i * ldc + j]).abs();
-                            worst = worst.max(d);
+        for kernel in Kernel::ALL {
+            for &(m, kk, n) in &SHAPES {
+                for transposed in [false, true] {
+                    for init_kind in 0..3 {
+                        let (a, b, c0, bias) = operands::<f64>(&mut rng, m, kk, n);
+                        let (ldb, ldc) = (n + 3, n + 2);
+                        let sa = if transposed {
+                            Strided::transposed(&a[..], m)
+                        } else {
+                            Strided::row_major(&a[..], kk)
+                        };
+                        let init = match init_kind {
+                            0 => Init::Zero,
+                            1 => Init::Accumulate,
+                            _ => Init::Bias(&bias),
+                        };
+                        let mut c1 = c0.clone();
+                        let mut seen = vec![0usize; m];
+                        gemm_then_with(
+                            kernel,
+                            m,
+                            kk,
+                            n,
+                            sa,
+                            &b,
+                            ldb,
+                            &mut c1,
+                            ldc,
+                            init,
+                            |i, row| {
+                                seen[i] += 1;
+                                // A visible epilogue: the tests below see it applied exactly once.
+                                for v in row.iter_mut() {
+                                    *v = 2.0 * *v + 1.0;
+                                }
+                            },
+                        );
+                        assert!(seen.iter().all(|&s| s == 1), "{kernel:?} epilogue {seen:?}");
+                        let mut c2 = c0.clone();
+                        if init_kind == 2 {
+                            for i in 0..m {
+                                c2[i * ldc..i * ldc + n].copy_from_slice(&bias);
+                            }
+                        }
+                        gemm_reference(m, kk, n, sa, &b, ldb, &mut c2, ldc, init_kind != 0);
+                        for i in 0..m {
+                            for j in 0..ldc {
+                                let (got, want) = (c1[i * ldc + j], c2[i * ldc + j]);
+                                // Padding columns are untouched; the others got the epilogue.
+                                let want = if j < n { 2.0 * want + 1.0 } else { want };
+                                worst = worst.max((got - want).abs());
+                            }
                         }
                     }
                 }
             }
         }
-        assert!(worst < 1e-12, "register kernel vs matrixmultiply: {worst}");
+        assert!(worst < 1e-12, "register kernels vs matrixmultiply: {worst}");
+    }
+
+    /// The `f32` instantiations (the ones that train, vectorised differently from `f64`) of every
+    /// kernel against the `f64` product of the same inputs, and [`gemm`] itself (the build's
+    /// [`KERNEL`]).
+    #[test]
+    fn f32_kernels_match_f64() {
+        let mut rng = Pcg64Mcg::seed_from_u64(32);
+        let mut worst = 0.0f64;
+        for &(m, kk, n) in &SHAPES {
+            for transposed in [false, true] {
+                let (a, b, c0, _) = operands::<f32>(&mut rng, m, kk, n);
+                let (ldb, ldc) = (n + 3, n + 2);
+                let up = |v: &[f32]| -> Vec<f64> { v.iter().map(|&x| x as f64).collect() };
+                let (a64, b64) = (up(&a), up(&b));
+                let (sa, sa64) = if transposed {
+                    (
+                        Strided::transposed(&a[..], m),
+                        Strided::transposed(&a64[..], m),
+                    )
+                } else {
+                    (
+                        Strided::row_major(&a[..], kk),
+                        Strided::row_major(&a64[..], kk),
+                    )
+                };
+                let mut want = up(&c0);
+                gemm_reference(m, kk, n, sa64, &b64, ldb, &mut want, ldc, true);
+                let mut check = |c: &[f32]| {
+                    for (g, w) in c.iter().zip(&want) {
+                        // |error| ≤ (k+1)·2⁻²⁴·Σ|terms| with |terms| ≤ 1: scale by k + 1.
+                        worst = worst.max((*g as f64 - w).abs() / (kk as f64 + 1.0));
+                    }
+                };
+                for kernel in Kernel::ALL {
+                    let mut c = c0.clone();
+                    gemm_then_with(
+                        kernel,
+                        m,
+                        kk,
+                        n,
+                        sa,
+                        &b,
+                        ldb,
+                        &mut c,
+                        ldc,
+                        Init::Accumulate,
+                        |_, _| {},
+                    );
+                    check(&c);
+                }
+                let mut c = c0.clone();
+                gemm(m, kk, n, sa, &b, ldb, &mut c, ldc, Init::Accumulate);
+                check(&c);
+            }
+        }
+        assert!(worst < 2.0f64.powi(-22), "f32 kernels vs f64: {worst:e}");
+    }
+
+    /// The dispatch rule of the module docs.
+    #[test]
+    fn build_selects_the_documented_kernel() {
+        let want = if cfg!(all(target_arch = "x86_64", target_feature = "avx512f")) {
+            Kernel::WideTiles
+        } else if cfg!(all(
+            target_arch = "x86_64",
+            target_feature = "avx2",
+            target_feature = "fma"
+        )) {
+            Kernel::PanelTiles
+        } else {
+            Kernel::MatrixMultiply
+        };
+        assert_eq!(KERNEL, want);
+        assert!(!Kernel::MatrixMultiply.specialises(64));
+        assert!(Kernel::PanelTiles.specialises(16) && !Kernel::WideTiles.specialises(13));
     }
 }

@@ -6,12 +6,12 @@
 //! linear (output activations such as the colour sigmoid are applied by the caller).
 //!
 //! Matrix products of widths 16/32/64 go through the register-blocked kernels of
-//! [`super::dense`] (activation and derivative fused into the product's epilogue, outputs
-//! narrower than 16 zero-padded to 16); other widths through [`Real::gemm`] (`matrixmultiply`).
-//! `benches/field.rs` measured, one thread, f32: the register kernels at 87–99% of the FMA peak
-//! on this network's shapes (`[3584×35]→64` 219 GFLOP/s), `matrixmultiply` at 47–62%, the naive
-//! triple loop at ~5 GFLOP/s. [`linear_forward_naive`] is the slow reference the tests compare
-//! against, and the finite-difference tests cover both the specialised and the other widths.
+//! [`super::dense`] where the build has them ([`dense::KERNEL`]: AVX-512 or AVX2+FMA; activation
+//! and derivative fused into the product's epilogue, outputs narrower than 16 zero-padded to 16);
+//! other widths, and every width on other builds, through [`Real::gemm`] (`matrixmultiply`).
+//! The dispatch rule and the measured figures are in [`super::dense`]'s docs.
+//! [`linear_forward_naive`] is the slow reference the tests compare against, and the
+//! finite-difference tests cover both the specialised and the other widths.
 
 // Numeric kernels index several parallel arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
@@ -64,9 +64,9 @@ impl Activation {
     }
 }
 
-/// Widths the register kernels of [`dense`] specialise.
+/// Widths the build's register kernel ([`dense::KERNEL`]) specialises.
 fn fast_width(w: usize) -> bool {
-    matches!(w, 16 | 32 | 64)
+    dense::KERNEL.specialises(w)
 }
 
 /// `Wᵀ` (`[d_in][d_out]`, the k-major operand of the register kernel) of `W [d_out][d_in]`.
@@ -100,7 +100,7 @@ pub fn linear_forward_then<T: Real, F: FnMut(usize, &mut [T])>(
     if fast_width(d_out) {
         let wt = transpose(&w[..d_out * d_in], d_in, d_out);
         dense::gemm_then(n, d_in, d_out, a, &wt, d_out, y, d_out, Init::Bias(b), post);
-    } else if d_out < 16 {
+    } else if d_out < 16 && fast_width(16) {
         // Narrow outputs (the SDF network's 13 channels, the colour network's 3): zero-padded to
         // 16 columns for the register kernel, then copied out.
         const P: usize = 16;

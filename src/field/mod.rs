@@ -76,8 +76,8 @@ pub trait Real:
     fn fma(self, a: Self, b: Self) -> Self;
     /// Softplus `ln(1 + e^{βz})/β` and its derivative `σ(βz)`, computed as
     /// `max(z,0) + ln1p(e^{−|βz|})/β` (no overflow, no threshold). `f64` uses the standard library;
-    /// `f32` uses branch-free polynomial `exp`/`ln1p` that vectorise ([`fastmath`]), relative
-    /// error below 1e-6 (tested).
+    /// `f32` uses branch-free polynomial `exp`/`ln1p` that vectorise ([`fastmath::softplus_f32`]),
+    /// within [`fastmath::SOFTPLUS_MAX_REL_ERROR`]` · (1 + β|z|)` relative (tested).
     fn softplus_and_grad(z: Self, beta: Self) -> (Self, Self);
     /// `C = alpha·A·B + beta·C` for row/column-strided matrices: `A` is `m×k`, `B` is `k×n`, `C`
     /// is `m×n` (strides in elements). Dispatches to `matrixmultiply::{sgemm,dgemm}`.
