@@ -114,8 +114,7 @@ fn meta_json_holds_the_true_genus_and_the_floor() {
         let dir = tmp.path().join(name);
         let report = sim::generate(&desc, &dir, &Default::default()).unwrap();
         let meta: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(dir.join("meta.json")).unwrap())
-                .unwrap();
+            serde_json::from_str(&std::fs::read_to_string(dir.join("meta.json")).unwrap()).unwrap();
         assert_eq!(meta["mesh_genus"].as_i64(), Some(genus), "{name}");
         assert_eq!(meta["mesh_components"].as_u64(), Some(1), "{name}");
         assert_eq!(report.mesh_genus, genus);
@@ -125,7 +124,10 @@ fn meta_json_holds_the_true_genus_and_the_floor() {
             meta["floor"]["mean_s2d"].as_f64().unwrap(),
         );
         // The true mesh against points sampled from it every 1 mm: a fraction of a millimetre.
-        assert!(floor.is_finite() && floor > 0.0 && floor < 1.5, "{name}: {floor}");
+        assert!(
+            floor.is_finite() && floor > 0.0 && floor < 1.5,
+            "{name}: {floor}"
+        );
         assert_eq!(floor, acc + comp);
         // The same protocol on the files written gives the same figure, bit for bit.
         let gt = dtu_eval::protocol::GroundTruth::load(&dir, desc.scan).unwrap();

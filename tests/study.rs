@@ -463,9 +463,15 @@ fn collect_on_known_numbers_gives_the_expected_tables() {
     let csv = std::fs::read_to_string(to.join("runs.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 18);
     // Records without the geometry figures (all of these) keep the columns and files they had.
-    assert!(csv.lines().next().unwrap().ends_with(",time_to_mesh"), "{csv}");
+    assert!(
+        csv.lines().next().unwrap().ends_with(",time_to_mesh"),
+        "{csv}"
+    );
     let runs_json = std::fs::read_to_string(to.join("runs.json")).unwrap();
-    assert!(!runs_json.contains("floor_mm") && !md.contains("Geometry"), "{runs_json}");
+    assert!(
+        !runs_json.contains("floor_mm") && !md.contains("Geometry"),
+        "{runs_json}"
+    );
     assert!(csv
         .lines()
         .nth(1)
@@ -518,7 +524,11 @@ fn hard_report_from_known_numbers_and_an_old_record() {
         if r.id == "blob-baseline-s2" {
             continue;
         }
-        let (floor, truth) = if r.scene == "blob" { (0.25, 0) } else { (0.2, 1) };
+        let (floor, truth) = if r.scene == "blob" {
+            (0.25, 0)
+        } else {
+            (0.2, 1)
+        };
         // One DIA run on the torus closes the hole.
         let genus = if r.id == "torus-dia-s1" { 0 } else { truth };
         let path = run_dir(&dir, &r.id).join("metrics.json");
@@ -545,6 +555,8 @@ fn hard_report_from_known_numbers_and_an_old_record() {
         "| torus | SIA | 3/3 | 0.900 | 0.200 | 4.50 | 3/3 |",
         // The suite mean of the baseline's ratio: (2.20 + 5.50) / 2.
         "ratio to the floor **3.85×**",
+        // blob (2.20) is within 4× its floor, the torus baseline (5.50) is not.
+        "Scenes within 4× their floor: 1/2.",
         // Genus on the scenes with holes: 8 of 9 on the torus.
         "| torus | 3/3 | 2/3 | 3/3 | 8/9 |",
         "| all | 3/3 | 2/3 | 3/3 | 8/9 |",
@@ -560,16 +572,28 @@ fn hard_report_from_known_numbers_and_an_old_record() {
     let csv = std::fs::read_to_string(to.join("runs.csv")).unwrap();
     let header = csv.lines().next().unwrap();
     assert!(header.ends_with(",time_to_mesh,floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,normal_error_deg"), "{header}");
-    let old = csv.lines().find(|l| l.starts_with("blob-baseline-s2,")).unwrap();
+    let old = csv
+        .lines()
+        .find(|l| l.starts_with("blob-baseline-s2,"))
+        .unwrap();
     assert!(old.ends_with(",,,,,,,,"), "{old}");
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(to.join("summary.json")).unwrap()).unwrap();
     let suite = &summary["geometry"]["suite"][0];
-    assert!((suite["ratio_mean"].as_f64().unwrap() - 3.85).abs() < 1e-9, "{suite}");
+    assert!(
+        (suite["ratio_mean"].as_f64().unwrap() - 3.85).abs() < 1e-9,
+        "{suite}"
+    );
     assert_eq!(suite["scenes"], 2);
     let cells = summary["geometry"]["cells"].as_array().unwrap();
     assert_eq!(cells.len(), 4);
-    assert_eq!((cells[2]["genus_matches"].as_u64(), cells[2]["genus_known"].as_u64()), (Some(2), Some(3)));
+    assert_eq!(
+        (
+            cells[2]["genus_matches"].as_u64(),
+            cells[2]["genus_known"].as_u64()
+        ),
+        (Some(2), Some(3))
+    );
     // Collecting again gives the same bytes.
     let again = tmp.path().join("again");
     collect(&dir, &again).unwrap();

@@ -953,7 +953,10 @@ mod tests {
         let g = GeometryVsTruth::new(&truth, &eval, &scene, Some(&chamfer), &torus);
         assert_eq!((g.floor_mm, g.ratio_to_floor), (Some(0.25), Some(4.0)));
         // The largest component decides, not the total genus over components.
-        assert_eq!((g.genus, g.gt_genus, g.genus_matches), (Some(1), Some(1), Some(true)));
+        assert_eq!(
+            (g.genus, g.gt_genus, g.genus_matches),
+            (Some(1), Some(1), Some(true))
+        );
         // Other ground truth: no floor, no ratio; the genus is the object's and still compares.
         for eval in [
             EvalConfig {
@@ -979,7 +982,13 @@ mod tests {
         assert_eq!((g.floor_mm, g.ratio_to_floor), (Some(0.25), None));
         assert_eq!((g.genus, g.genus_matches), (None, Some(false)));
         // A scene that knows nothing (real DTU): everything unknown, nothing false.
-        let g = GeometryVsTruth::new(&sim::SceneTruth::default(), &eval, &scene, Some(&chamfer), &torus);
+        let g = GeometryVsTruth::new(
+            &sim::SceneTruth::default(),
+            &eval,
+            &scene,
+            Some(&chamfer),
+            &torus,
+        );
         assert_eq!(
             (g.floor_mm, g.ratio_to_floor, g.gt_genus, g.genus_matches),
             (None, None, None, None)

@@ -550,7 +550,10 @@ mod tests {
             .filter(|r| r.scene == "torus")
             .map(|r| r.id.as_str())
             .collect();
-        assert_eq!(torus[..3], ["torus-baseline-s0", "torus-dia-s0", "torus-sia-s0"]);
+        assert_eq!(
+            torus[..3],
+            ["torus-baseline-s0", "torus-dia-s0", "torus-sia-s0"]
+        );
         assert_eq!(torus.len(), 9);
         assert_eq!(hard[0].id, "blob-baseline-s0");
         assert_eq!(hard[1].id, "blob-baseline-s1");

@@ -15,6 +15,9 @@ use crate::augment::AugMode;
 use serde::Serialize;
 use std::fmt::Write as _;
 
+/// The ratio to the floor issue 13 asks every scene to stay within ("Chamfer ≤ 4× its floor").
+pub(super) const RATIO_TARGET: f64 = 4.0;
+
 fn geo(r: &RunRecord) -> Option<&GeometryRecord> {
     r.geometry.as_ref()
 }
@@ -74,7 +77,9 @@ pub(super) struct SuiteMean {
     pub(super) ratio_mean: Option<f64>,
     pub(super) chamfer_mean: Option<f64>,
     pub(super) floor_mean: Option<f64>,
+    /// Scenes with a ratio, and those whose mean ratio is at most [`RATIO_TARGET`].
     pub(super) scenes: usize,
+    pub(super) scenes_within_target: usize,
 }
 
 /// The arm the suite means are taken over: the baseline when the study has one.
@@ -120,10 +125,8 @@ pub(super) fn summarise(lay: &Layout<'_>) -> GeometrySummary {
                     continue;
                 }
                 let recs = records_of(lay, c, s, a);
-                let verdicts: Vec<bool> = recs
-                    .iter()
-                    .filter_map(|r| geo(r)?.genus_matches)
-                    .collect();
+                let verdicts: Vec<bool> =
+                    recs.iter().filter_map(|r| geo(r)?.genus_matches).collect();
                 let mean = |f: Metric| lay.row_mean(&row, a, f);
                 cells.push(GeometryCell {
                     condition: c.clone(),
@@ -160,6 +163,10 @@ pub(super) fn summarise(lay: &Layout<'_>) -> GeometrySummary {
             chamfer_mean: avg(&|x| x.chamfer_mean),
             floor_mean: avg(&|x| x.floor_mm),
             scenes: per_scene.iter().filter(|x| x.ratio_mean.is_some()).count(),
+            scenes_within_target: per_scene
+                .iter()
+                .filter(|x| x.ratio_mean.is_some_and(|r| r <= RATIO_TARGET))
+                .count(),
         });
     }
     GeometrySummary { cells, suite }
@@ -248,7 +255,7 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
         let _ = writeln!(
             md,
             "Suite mean{} ({}, {} scene(s) with a ratio): ratio to the floor **{}**; Chamfer {} mm \
-             against a mean floor of {} mm.\n",
+             against a mean floor of {} mm. Scenes within {}× their floor: {}/{}.\n",
             if many_conds {
                 format!(" of {}", m.condition)
             } else {
@@ -259,6 +266,9 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
             m.ratio_mean.map_or("—".into(), |x| format!("{x:.2}×")),
             fmt_opt(m.chamfer_mean, 3),
             fmt_opt(m.floor_mean, 3),
+            RATIO_TARGET,
+            m.scenes_within_target,
+            m.scenes,
         );
     }
 
@@ -405,9 +415,9 @@ pub(super) fn report_md(lay: &Layout<'_>, missing: &[String]) -> (String, Vec<Di
             });
         }
         if with_arms.len() > 1 {
-            // Pairs exist only where the arms ran, so the pooled row is over those scenes.
+            // Pairs exist only where the arms ran, so the mean row is over those scenes.
             rows.push(Row {
-                label: "pooled".into(),
+                label: "mean".into(),
                 condition: c.clone(),
                 scene: None,
             });
