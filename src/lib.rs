@@ -4,8 +4,8 @@
 //! the `dtu_eval` crate (the DTU Chamfer protocol; the ground floor) and [`util`] (shared helpers
 //! that import nothing) → [`scene`] (DTU-layout I/O, cameras, rays) → [`augment`] (colour
 //! manipulations, degradations, SIA/DIA) → [`field`] → [`render`] → [`train`] → [`mesh`] →
-//! [`sim`] (the simulator: uses `scene`, `augment` and `dtu_eval`) → [`import`] (COLMAP and
-//! transforms.json data into the DTU layout: uses `scene`) → [`reconstruct`] →
+//! [`sim`] (the simulator: uses `scene`, `augment`, `mesh` and `dtu_eval`) → [`import`] (COLMAP
+//! and transforms.json data into the DTU layout: uses `scene`) → [`reconstruct`] →
 //! [`study`] → the `neus-aug` binary's `cli`. Nothing low in the stack knows about what sits
 //! above it.
 

@@ -6,6 +6,9 @@
 //! held-out silhouette IoU 0.70 and 11.7k mesh faces outside every training mask; with the
 //! default squashed BCE the hole stays open (IoU 0.93, no face outside the masks). The test
 //! asserts the open hole, so it fails when the membrane returns.
+//!
+//! Also the truth a reconstruction is judged against (issue 13, part 5): the true genus and the
+//! Chamfer floor that `meta.json` records, and what `metrics.json` makes of them.
 
 mod common;
 
@@ -87,4 +90,59 @@ fn an_empty_mesh_is_reported_not_a_failure() {
     assert!(m["chamfer"].is_null(), "{m:#}");
     assert!(m["eval_note"].as_str().unwrap().contains("empty"));
     assert_eq!(m["mesh"]["faces"].as_u64(), Some(0));
+    // The scene's floor and true genus are still reported; an empty mesh has no genus, so it
+    // does not match the truth, and there is no ratio without a Chamfer figure.
+    assert_eq!(m["gt_genus"].as_i64(), Some(0), "{m:#}");
+    assert_eq!(m["genus_matches"].as_bool(), Some(false), "{m:#}");
+    assert!(m["mesh"]["largest_genus"].is_null(), "{m:#}");
+    assert!(m["floor_mm"].as_f64().unwrap() > 0.0, "{m:#}");
+    assert!(m["ratio_to_floor"].is_null(), "{m:#}");
+}
+
+/// `meta.json` holds the true mesh's genus (largest component, Euler characteristic) and the
+/// Chamfer floor, and the floor is what the DTU protocol gives on the written files.
+#[test]
+fn meta_json_holds_the_true_genus_and_the_floor() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (name, genus) in [("blob", 0), ("torus", 1), ("double-torus", 2)] {
+        let mut desc = sim::builtin(name).unwrap();
+        desc.rig.views = 6;
+        desc.rig.resolution = [40, 30];
+        desc.render.spp = 1;
+        desc.gt.spacing_mm = 1.0;
+        desc.gt.obs_res_mm = 4.0;
+        let dir = tmp.path().join(name);
+        let report = sim::generate(&desc, &dir, &Default::default()).unwrap();
+        let meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("meta.json")).unwrap()).unwrap();
+        assert_eq!(meta["mesh_genus"].as_i64(), Some(genus), "{name}");
+        assert_eq!(meta["mesh_components"].as_u64(), Some(1), "{name}");
+        assert_eq!(report.mesh_genus, genus);
+        let floor = meta["floor"]["chamfer_sum"].as_f64().unwrap();
+        let (acc, comp) = (
+            meta["floor"]["mean_d2s"].as_f64().unwrap(),
+            meta["floor"]["mean_s2d"].as_f64().unwrap(),
+        );
+        // The true mesh against points sampled from it every 1 mm: a fraction of a millimetre.
+        assert!(
+            floor.is_finite() && floor > 0.0 && floor < 1.5,
+            "{name}: {floor}"
+        );
+        assert_eq!(floor, acc + comp);
+        // The same protocol on the files written gives the same figure, bit for bit.
+        let gt = dtu_eval::protocol::GroundTruth::load(&dir, desc.scan).unwrap();
+        let mesh = dtu_eval::ply::read_mesh(&dir.join("gt_mesh.ply")).unwrap();
+        let again = sim::chamfer_floor(&mesh, &gt).unwrap();
+        assert_eq!(again.chamfer_sum, floor, "{name}");
+        // And a reconstruction reads it back.
+        let truth = sim::SceneTruth::read(&dir);
+        assert_eq!(truth.genus, Some(genus));
+        assert_eq!(truth.floor.map(|f| f.chamfer_sum), Some(floor));
+        assert_eq!(truth.scan, Some(desc.scan));
+    }
+    assert_eq!(
+        sim::SceneTruth::read(tmp.path()),
+        sim::SceneTruth::default(),
+        "a folder without meta.json knows nothing"
+    );
 }

@@ -77,6 +77,19 @@ fn same_seed_gives_the_same_mesh_and_all_outputs_exist() {
     for phase in ["load", "train", "mesh", "eval", "render", "total"] {
         assert!(m["timings_s"][phase].as_f64().unwrap() >= 0.0, "{phase}");
     }
+    // Issue 13's figures against the truth: the scene's floor and true genus (its meta.json),
+    // the ratio of the Chamfer sum to the floor, and whether the largest component's genus
+    // matches.
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(tiny_scene().join("meta.json")).unwrap())
+            .unwrap();
+    let floor = meta["floor"]["chamfer_sum"].as_f64().unwrap();
+    assert_eq!(m["floor_mm"].as_f64(), Some(floor), "{m}");
+    let chamfer = m["chamfer"]["chamfer_sum"].as_f64().unwrap();
+    assert_eq!(m["ratio_to_floor"].as_f64(), Some(chamfer / floor), "{m}");
+    assert_eq!(m["gt_genus"].as_i64(), Some(0), "{m}");
+    let genus = m["mesh"]["largest_genus"].as_i64().unwrap();
+    assert_eq!(m["genus_matches"].as_bool(), Some(genus == 0), "{m}");
     // The mesh is in world mm: its centre is near the scene's normalisation centre, not the origin.
     let mesh = dtu_eval::ply::read_mesh(&a.join("mesh.ply")).unwrap();
     let scene = neus_aug::scene::Scene::load(tiny_scene(), &Default::default()).unwrap();

@@ -462,6 +462,16 @@ fn collect_on_known_numbers_gives_the_expected_tables() {
     }
     let csv = std::fs::read_to_string(to.join("runs.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 18);
+    // Records without the geometry figures (all of these) keep the columns and files they had.
+    assert!(
+        csv.lines().next().unwrap().ends_with(",time_to_mesh"),
+        "{csv}"
+    );
+    let runs_json = std::fs::read_to_string(to.join("runs.json")).unwrap();
+    assert!(
+        !runs_json.contains("floor_mm") && !md.contains("Geometry"),
+        "{runs_json}"
+    );
     assert!(csv
         .lines()
         .nth(1)
@@ -484,6 +494,116 @@ fn collect_on_known_numbers_gives_the_expected_tables() {
         e.contains(&plan.runs[4].id) && e.contains("0123456789abcdef"),
         "{e}"
     );
+}
+
+/// The `hard` grid's report on fabricated runs: every run but one carries the geometry figures
+/// (floor, ratio, genus, components, normal error); `blob-baseline-s2` is a record written
+/// before they existed and still loads, shown as unknown.
+#[test]
+fn hard_report_from_known_numbers_and_an_old_record() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("hard");
+    let mut o = StudyOptions::new(Grid::Hard);
+    assert_eq!(o.scenes.len(), neus_aug::sim::CATALOG.len());
+    o.scenes = vec!["blob".into(), "torus".into()];
+    let (plan, cfgs) = make_plan(&o, None, &dir).unwrap();
+    // blob: the baseline only; torus: baseline, DIA and SIA.
+    assert_eq!(plan.runs.len(), 3 + 3 * 3);
+    // blob 0.5 + seed/10; torus baseline 1.0, DIA 1.2, SIA 0.8 (+ seed/10).
+    let chamfer = |r: &neus_aug::study::RunSpec| {
+        let base = if r.scene == "blob" { 0.5 } else { 1.0 };
+        base + r.seed as f64 / 10.0
+            + match r.arm {
+                AugMode::None => 0.0,
+                AugMode::Dia => 0.2,
+                AugMode::Sia => -0.2,
+            }
+    };
+    fabricate(&dir, &plan, &cfgs, chamfer, |_| 100.0);
+    for r in &plan.runs {
+        if r.id == "blob-baseline-s2" {
+            continue;
+        }
+        let (floor, truth) = if r.scene == "blob" {
+            (0.25, 0)
+        } else {
+            (0.2, 1)
+        };
+        // One DIA run on the torus closes the hole.
+        let genus = if r.id == "torus-dia-s1" { 0 } else { truth };
+        let path = run_dir(&dir, &r.id).join("metrics.json");
+        let mut m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        m["floor_mm"] = floor.into();
+        m["ratio_to_floor"] = (chamfer(r) / floor).into();
+        m["gt_genus"] = truth.into();
+        m["genus_matches"] = (genus == truth).into();
+        m["normal_error_deg"] = 5.0.into();
+        m["mesh"] = serde_json::json!({"vertices": 50, "faces": 90, "components": 1,
+            "genus": genus, "largest_genus": genus, "raw_components": 5, "raw_faces": 100});
+        std::fs::write(&path, m.to_string()).unwrap();
+    }
+    let to = tmp.path().join("out");
+    collect(&dir, &to).unwrap();
+    let md = std::fs::read_to_string(to.join("report.md")).unwrap();
+    for s in [
+        "# Study `hard`",
+        // blob: Chamfer over 3 runs, ratio and genus over the 2 that know them.
+        "| blob | baseline | 3/3 | 0.600 | 0.250 | 2.20 | 2/2 | 0, 0, — (0) | 5.0 → 1.0 | 5.0 | 25.00 |",
+        "| torus | baseline | 3/3 | 1.100 | 0.200 | 5.50 | 3/3 | 1, 1, 1 (1) | 5.0 → 1.0 | 5.0 | 25.00 |",
+        "| torus | DIA | 3/3 | 1.300 | 0.200 | 6.50 | 2/3 | 1, 0, 1 (1) |",
+        "| torus | SIA | 3/3 | 0.900 | 0.200 | 4.50 | 3/3 |",
+        // The suite mean of the baseline's ratio: (2.20 + 5.50) / 2.
+        "ratio to the floor **3.85×**",
+        // blob (2.20) is within 4× its floor, the torus baseline (5.50) is not.
+        "Scenes within 4× their floor: 1/2.",
+        // Genus on the scenes with holes: 8 of 9 on the torus.
+        "| torus | 3/3 | 2/3 | 3/3 | 8/9 |",
+        "| all | 3/3 | 2/3 | 3/3 | 8/9 |",
+        // Every run; the old record shows what it does not know as unknown.
+        "| torus-dia-s1 | 1.300 | 0.200 | 6.50 | 0 (1) ≠ | 5 → 1 | 5.0 | 25.00 |",
+        "| blob-baseline-s2 | 0.700 | — | — | — (?) | — → — | — | 25.00 |",
+        // Paired differences only where the augmentations ran.
+        "| torus | +0.200 [+0.200, +0.200] (n=3) | −0.200 [−0.200, −0.200] (n=3) |",
+    ] {
+        assert!(md.contains(s), "report lacks {s:?}:\n{md}");
+    }
+    assert!(!md.contains("| blob | +"), "no paired row for blob:\n{md}");
+    let csv = std::fs::read_to_string(to.join("runs.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(header.ends_with(",time_to_mesh,floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,normal_error_deg"), "{header}");
+    let old = csv
+        .lines()
+        .find(|l| l.starts_with("blob-baseline-s2,"))
+        .unwrap();
+    assert!(old.ends_with(",,,,,,,,"), "{old}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(to.join("summary.json")).unwrap()).unwrap();
+    let suite = &summary["geometry"]["suite"][0];
+    assert!(
+        (suite["ratio_mean"].as_f64().unwrap() - 3.85).abs() < 1e-9,
+        "{suite}"
+    );
+    assert_eq!(suite["scenes"], 2);
+    let cells = summary["geometry"]["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 4);
+    assert_eq!(
+        (
+            cells[2]["genus_matches"].as_u64(),
+            cells[2]["genus_known"].as_u64()
+        ),
+        (Some(2), Some(3))
+    );
+    // Collecting again gives the same bytes.
+    let again = tmp.path().join("again");
+    collect(&dir, &again).unwrap();
+    for f in ["report.md", "runs.csv", "runs.json", "summary.json"] {
+        assert_eq!(
+            std::fs::read(to.join(f)).unwrap(),
+            std::fs::read(again.join(f)).unwrap(),
+            "{f}"
+        );
+    }
 }
 
 #[test]

@@ -12,7 +12,9 @@ use std::path::PathBuf;
 ///
 /// Grids: table2 (baseline/DIA/SIA on every scene), reduced (IA off/on × 10/25/50/75 % of the
 /// views), degraded and degraded-mild (IA off/on × five degradations), pareto (Chamfer against
-/// time, one factor at a time), smoke (a quick check). Examples:
+/// time, one factor at a time), smoke (a quick check), hard (every built-in scene at the
+/// baseline, plus DIA/SIA on torus and double-torus: Chamfer against its floor, genus against
+/// the truth, components, normal error). Examples:
 ///
 ///   neus-aug study table2 --out studies/table2        (runs, resumable; then writes report/)
 ///   neus-aug study collect studies/table2             (tables and plots from what exists)
@@ -20,12 +22,13 @@ use std::path::PathBuf;
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct StudyArgs {
-    /// A grid (table2, reduced, degraded, degraded-mild, pareto, smoke), `collect`, or `list`.
+    /// A grid (table2, reduced, degraded, degraded-mild, pareto, smoke, hard), `collect`, or
+    /// `list`.
     pub grid: String,
     /// For `collect`: the study folder.
     pub dir: Option<PathBuf>,
     /// Scenes, comma-separated: built-in names, `all`, folders or DTU scans (default: every
-    /// built-in scene for table2, the default scene otherwise).
+    /// built-in scene for table2 and hard, the default scene otherwise).
     #[arg(long)]
     pub scenes: Option<String>,
     /// Seeds per cell, 0..N (default: 3; pareto 1; smoke 2).

@@ -93,8 +93,13 @@ pub struct MeshSummary {
     pub boundary_edges: usize,
     pub non_manifold_edges: usize,
     pub components: usize,
-    /// Genus of the written (cleaned) mesh (`TopologyReport::genus`).
+    /// Genus of the written (cleaned) mesh, summed over its components
+    /// (`TopologyReport::genus`).
     pub genus: i64,
+    /// Genus of the written mesh's largest component (`TopologyReport::largest_genus`): what
+    /// `genus_matches` compares with the ground truth's. `None` for an empty mesh and in records
+    /// written before it existed.
+    pub largest_genus: Option<i64>,
     /// Genus of the raw marching-cubes mesh: what the SDF itself represents (closed mesh).
     pub raw_genus: i64,
     /// Components of the raw mesh.
@@ -129,6 +134,21 @@ pub struct Metrics {
     /// Mean silhouette IoU over the held-out views that have masks.
     #[serde(default)]
     pub mask_iou_heldout: Option<f64>,
+    /// The scene's Chamfer floor (mm): its true mesh scored by the same protocol, from the
+    /// scene's `meta.json` (`sim::Floor`). `None` for scenes without one (real DTU, scenes made
+    /// by an older simulator) and when the Chamfer used other ground truth (`eval.gt_root`).
+    #[serde(default)]
+    pub floor_mm: Option<f64>,
+    /// `chamfer.chamfer_sum / floor_mm` (1 would be perfect); `None` when either is missing.
+    #[serde(default)]
+    pub ratio_to_floor: Option<f64>,
+    /// Genus of the true mesh's largest component (`meta.json`'s `mesh_genus`); `None` unknown.
+    #[serde(default)]
+    pub gt_genus: Option<i64>,
+    /// `mesh.largest_genus == gt_genus` (an empty mesh does not match); `None` when the truth
+    /// is unknown.
+    #[serde(default)]
+    pub genus_matches: Option<bool>,
     #[serde(default)]
     pub heldout: Vec<ViewMetrics>,
     pub train: TrainSummary,
@@ -168,6 +188,12 @@ mod tests {
             (1, 0, 2000)
         );
         assert!(m.normal_error_deg.is_none() && m.mesh.clean.is_none());
+        // Issue 13's geometry figures are unknown in old records, not zero or false.
+        assert_eq!(
+            (m.floor_mm, m.ratio_to_floor, m.gt_genus, m.genus_matches),
+            (None, None, None, None)
+        );
+        assert_eq!(m.mesh.largest_genus, None);
         // A record without its Chamfer sum or its hash is an error, not a zero.
         let bad = old.replace(",\n            \"chamfer_sum\":0.9", "");
         assert!(serde_json::from_str::<Metrics>(&bad).is_err());

@@ -284,12 +284,12 @@ fn remove_if_present(path: &Path) -> Result<(), ReconstructError> {
 
 /// Finds ground truth for the scene: `eval.gt_root` (+ scan) or the scene folder itself
 /// (synthetic scenes). Returns `(root, scan)` or a note saying why there is none.
-fn find_gt(cfg: &RunConfig, scene: &ResolvedScene) -> Result<(PathBuf, u32), String> {
-    let meta_scan = std::fs::read_to_string(scene.dir.join("meta.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .and_then(|v| v.get("scan").and_then(|s| s.as_u64()))
-        .map(|s| s as u32);
+fn find_gt(
+    cfg: &RunConfig,
+    scene: &ResolvedScene,
+    truth: &sim::SceneTruth,
+) -> Result<(PathBuf, u32), String> {
+    let meta_scan = truth.scan;
     let name_scan = || {
         let digits: String = scene
             .name
@@ -321,6 +321,50 @@ fn find_gt(cfg: &RunConfig, scene: &ResolvedScene) -> Result<(PathBuf, u32), Str
         }
     }
     Ok((root, scan))
+}
+
+/// The geometry figures judged against the scene's truth (`meta.json`, [`sim::SceneTruth`]).
+struct GeometryVsTruth {
+    floor_mm: Option<f64>,
+    ratio_to_floor: Option<f64>,
+    /// Genus of the written mesh's largest component (`None` for an empty mesh).
+    genus: Option<i64>,
+    gt_genus: Option<i64>,
+    genus_matches: Option<bool>,
+}
+
+impl GeometryVsTruth {
+    /// The floor applies only when the scene is scored against its own ground truth (the
+    /// floor's): not with `eval.gt_root` or `eval.scan` pointing elsewhere. It is reported even
+    /// when there is no Chamfer figure (an empty mesh); the ratio then is `None`. An empty mesh
+    /// has no genus, so it does not match a known one.
+    fn new(
+        truth: &sim::SceneTruth,
+        eval: &EvalConfig,
+        scene: &ResolvedScene,
+        chamfer: Option<&ChamferMetrics>,
+        topo: &TopologyReport,
+    ) -> Self {
+        let own_gt = eval.gt_root.as_ref().is_none_or(|r| *r == scene.dir)
+            && eval.scan.is_none_or(|s| truth.scan == Some(s));
+        let floor_mm = truth
+            .floor
+            .filter(|_| own_gt)
+            .map(|f| f.chamfer_sum)
+            .filter(|f| *f > 0.0);
+        let ratio_to_floor = match (chamfer, floor_mm) {
+            (Some(c), Some(f)) => Some(c.chamfer_sum / f),
+            _ => None,
+        };
+        let genus = (topo.faces > 0).then_some(topo.largest_genus);
+        Self {
+            floor_mm,
+            ratio_to_floor,
+            genus,
+            gt_genus: truth.genus,
+            genus_matches: truth.genus.map(|g| genus == Some(g)),
+        }
+    }
 }
 
 /// A progress display: an indicatif bar on a terminal, a line every ~5 % otherwise.
@@ -632,6 +676,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
 
     // Evaluation.
     let t = Instant::now();
+    let truth = sim::SceneTruth::read(&scene_ref.dir);
     let (chamfer, eval_note) = if !cfg.eval.enabled {
         (
             None,
@@ -649,7 +694,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         eprintln!("warning: {note}");
         (None, Some(note))
     } else {
-        match find_gt(cfg, &scene_ref) {
+        match find_gt(cfg, &scene_ref, &truth) {
             Err(note) => (None, Some(note)),
             Ok((root, scan)) => {
                 let gt = dtu_eval::protocol::GroundTruth::load(&root, scan)?;
@@ -674,6 +719,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         }
     };
     timings.eval = t.elapsed().as_secs_f64();
+    let geometry = GeometryVsTruth::new(&truth, &cfg.eval, &scene_ref, chamfer.as_ref(), &topo);
     match (&chamfer, &eval_note) {
         (Some(c), _) => say(
             quiet,
@@ -684,6 +730,20 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         ),
         (None, Some(n)) => say(quiet, format!("no evaluation: {n}")),
         _ => {}
+    }
+    if let (Some(f), Some(r)) = (geometry.floor_mm, geometry.ratio_to_floor) {
+        say(quiet, format!("floor {f:.3} mm: Chamfer {r:.2}× the floor"));
+    }
+    if let Some(g) = geometry.gt_genus {
+        say(
+            quiet,
+            format!(
+                "genus of the largest component {} (ground truth {g})",
+                geometry
+                    .genus
+                    .map_or("— (empty mesh)".to_string(), |x| x.to_string())
+            ),
+        );
     }
 
     // Held-out renders.
@@ -806,6 +866,10 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         psnr_heldout,
         ssim_heldout,
         normal_error_deg: (nerr_px > 0).then(|| nerr_sum / nerr_px as f64),
+        floor_mm: geometry.floor_mm,
+        ratio_to_floor: geometry.ratio_to_floor,
+        gt_genus: geometry.gt_genus,
+        genus_matches: geometry.genus_matches,
         mask_iou_heldout: mean(&|m| m.mask_iou),
         heldout: heldout_metrics,
         train: train_summary,
@@ -816,6 +880,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             non_manifold_edges: topo.non_manifold_edges,
             components: topo.components,
             genus: topo.genus,
+            largest_genus: geometry.genus,
             raw_genus: topo_raw.genus,
             raw_components: topo_raw.components,
             raw_faces: topo_raw.faces,
@@ -839,4 +904,94 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     );
     drop(lock);
     Ok(metrics)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn geometry_is_judged_only_against_the_scenes_own_truth() {
+        let scene = ResolvedScene {
+            dir: PathBuf::from("/scenes/torus"),
+            name: "torus".into(),
+            kind: SceneKind::Folder,
+        };
+        let truth = sim::SceneTruth {
+            scan: Some(102),
+            genus: Some(1),
+            floor: Some(sim::Floor {
+                chamfer_sum: 0.25,
+                mean_d2s: 0.15,
+                mean_s2d: 0.10,
+            }),
+        };
+        let chamfer = ChamferMetrics {
+            mean_d2s: 0.4,
+            mean_s2d: 0.6,
+            overall: 0.5,
+            chamfer_sum: 1.0,
+            gt_root: scene.dir.display().to_string(),
+            scan: 102,
+        };
+        let torus = TopologyReport {
+            vertices: 4,
+            faces: 8,
+            edges: 12,
+            boundary_edges: 0,
+            non_manifold_edges: 0,
+            misoriented_edges: 0,
+            degenerate_faces: 0,
+            unreferenced_vertices: 0,
+            components: 2,
+            euler_characteristic: 0,
+            boundary_loops: 0,
+            genus: 3,
+            largest_genus: 1,
+        };
+        let eval = EvalConfig::default();
+        let g = GeometryVsTruth::new(&truth, &eval, &scene, Some(&chamfer), &torus);
+        assert_eq!((g.floor_mm, g.ratio_to_floor), (Some(0.25), Some(4.0)));
+        // The largest component decides, not the total genus over components.
+        assert_eq!(
+            (g.genus, g.gt_genus, g.genus_matches),
+            (Some(1), Some(1), Some(true))
+        );
+        // Other ground truth: no floor, no ratio; the genus is the object's and still compares.
+        for eval in [
+            EvalConfig {
+                gt_root: Some("/dtu".into()),
+                ..EvalConfig::default()
+            },
+            EvalConfig {
+                scan: Some(24),
+                ..EvalConfig::default()
+            },
+        ] {
+            let g = GeometryVsTruth::new(&truth, &eval, &scene, Some(&chamfer), &torus);
+            assert_eq!((g.floor_mm, g.ratio_to_floor), (None, None));
+            assert_eq!(g.genus_matches, Some(true));
+        }
+        // An empty mesh: the floor is reported, no ratio, and no genus to match.
+        let empty = TopologyReport {
+            faces: 0,
+            largest_genus: 0,
+            ..torus
+        };
+        let g = GeometryVsTruth::new(&truth, &eval, &scene, None, &empty);
+        assert_eq!((g.floor_mm, g.ratio_to_floor), (Some(0.25), None));
+        assert_eq!((g.genus, g.genus_matches), (None, Some(false)));
+        // A scene that knows nothing (real DTU): everything unknown, nothing false.
+        let g = GeometryVsTruth::new(
+            &sim::SceneTruth::default(),
+            &eval,
+            &scene,
+            Some(&chamfer),
+            &torus,
+        );
+        assert_eq!(
+            (g.floor_mm, g.ratio_to_floor, g.gt_genus, g.genus_matches),
+            (None, None, None, None)
+        );
+    }
 }

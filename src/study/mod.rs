@@ -13,6 +13,7 @@
 //! | `degraded-mild` | IA off / on × the five degradations at their milder strength            | appendix    |
 //! | `pareto`        | one factor at a time around the preset, plus the presets (issue 6)      | —           |
 //! | `smoke`         | baseline and SIA for a tenth of the preset's steps: a quick check       | —           |
+//! | `hard`          | baseline; DIA/SIA on torus, double-torus: floor, genus, normals         | issue 13    |
 //!
 //! "IA" is SIA unless `--ia dia` ([`grid::StudyOptions::ia`]): the paper's best NeuS geometry
 //! figure is SIA's (DESIGN §8: 1.91 vs 2.03 for the baseline and for DIA) at the baseline's cost.

@@ -17,12 +17,23 @@ pub(super) fn csv_field(s: &str) -> String {
     }
 }
 
+/// One row per run. The geometry columns (issue 13) follow when any record has them
+/// ([`RunRecord::geometry`]), so older studies keep their columns.
 pub(super) fn runs_csv(records: &[RunRecord]) -> String {
+    let geometry = records.iter().any(|r| r.geometry.is_some());
     let mut s = String::from(
         "id,scene,condition,arm,seed,preset,views_fraction,degrade,chamfer_sum,accuracy,\
          completeness,overall,psnr,ssim,iterations,resumed_from,reused_training,time_load,\
-         time_prepare,time_train,time_mesh,time_eval,time_render,time_total,time_to_mesh\n",
+         time_prepare,time_train,time_mesh,time_eval,time_render,time_total,time_to_mesh",
     );
+    if geometry {
+        s.push_str(
+            ",floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,\
+             normal_error_deg",
+        );
+    }
+    s.push('\n');
+    let opt = |v: Option<String>| v.unwrap_or_default();
     for r in records {
         let f = [
             csv_field(&r.id),
@@ -52,6 +63,21 @@ pub(super) fn runs_csv(records: &[RunRecord]) -> String {
             r.time_to_mesh.to_string(),
         ];
         s.push_str(&f.join(","));
+        if geometry {
+            let g = r.geometry.clone().unwrap_or_default();
+            let f = [
+                csv_opt(g.floor_mm),
+                csv_opt(g.ratio_to_floor),
+                opt(g.genus.map(|x| x.to_string())),
+                opt(g.gt_genus.map(|x| x.to_string())),
+                opt(g.genus_matches.map(|x| x.to_string())),
+                opt(g.components_raw.map(|x| x.to_string())),
+                opt(g.components.map(|x| x.to_string())),
+                csv_opt(g.normal_error_deg),
+            ];
+            s.push(',');
+            s.push_str(&f.join(","));
+        }
         s.push('\n');
     }
     s

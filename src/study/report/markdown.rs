@@ -118,18 +118,11 @@ pub(super) fn study_command(plan: &StudyPlan) -> String {
     c
 }
 
-/// The whole `report.md` of a study, and the paired differences it shows (for `summary.json`).
-/// `pareto`: the variants of a pareto study, `None` for other grids.
-pub(super) fn report_md(
-    lay: &Layout<'_>,
-    rows: &[Row],
-    missing: &[String],
-    pareto: Option<&[ParetoRow]>,
-) -> (String, Vec<DiffSummary>) {
+/// The title, what ran, and the command that made it.
+pub(super) fn intro(md: &mut String, lay: &Layout<'_>, missing: &[String]) {
     let plan = lay.plan;
     let records = lay.records;
     let o = &plan.options;
-    let mut md = String::new();
     let _ = writeln!(md, "# Study `{}`: {}\n", o.grid, o.grid.summary());
     let _ = writeln!(
         md,
@@ -160,6 +153,38 @@ pub(super) fn report_md(
         "Made with:\n\n```\n{}\nneus-aug study collect STUDY_DIR\n```\n",
         study_command(plan)
     );
+}
+
+/// The column title of a table's first column: `condition` when there are several, else `scene`.
+pub(super) fn first_column(lay: &Layout<'_>) -> &'static str {
+    if lay.conditions.len() > 1 {
+        "condition"
+    } else {
+        "scene"
+    }
+}
+
+/// The header `first`, then one column per arm.
+pub(super) fn arm_header(lay: &Layout<'_>, first: &str) -> Vec<String> {
+    let mut h = vec![first.to_string()];
+    h.extend(lay.arms.iter().map(|a| arm_title(*a).to_string()));
+    h
+}
+
+/// The whole `report.md` of a study, and the paired differences it shows (for `summary.json`).
+/// `pareto`: the variants of a pareto study, `None` for other grids. The `hard` grid has its
+/// own ([`super::hard::report_md`]).
+pub(super) fn report_md(
+    lay: &Layout<'_>,
+    rows: &[Row],
+    missing: &[String],
+    pareto: Option<&[ParetoRow]>,
+) -> (String, Vec<DiffSummary>) {
+    let plan = lay.plan;
+    let records = lay.records;
+    let o = &plan.options;
+    let mut md = String::new();
+    intro(&mut md, lay, missing);
     let _ = writeln!(
         md,
         "Distances are the DTU protocol in mm (accuracy = mesh → ground truth, completeness = \
@@ -168,16 +193,8 @@ pub(super) fn report_md(
          results.\n"
     );
 
-    let arm_header = |first: &str| {
-        let mut h = vec![first.to_string()];
-        h.extend(lay.arms.iter().map(|a| arm_title(*a).to_string()));
-        h
-    };
-    let first_col = if lay.conditions.len() > 1 {
-        "condition"
-    } else {
-        "scene"
-    };
+    let arm_header = |first: &str| arm_header(lay, first);
+    let first_col = first_column(lay);
 
     // Chamfer means, best bold, runner-up italic; time beside it.
     let _ = writeln!(
@@ -249,75 +266,13 @@ pub(super) fn report_md(
     });
     md_table(&mut md, &arm_header(first_col), &t);
 
-    // Paired differences.
-    let mut diffs = Vec::new();
-    if lay.has_baseline_and_others() {
-        let others: Vec<AugMode> = lay
-            .arms
-            .iter()
-            .copied()
-            .filter(|a| *a != AugMode::None)
-            .collect();
-        let _ = writeln!(
-            md,
-            "## Paired differences arm − baseline (Chamfer, mm; negative: the arm is better)\n\n\
-             Mean difference over pairs of runs with the same condition, scene and seed, with a \
-             95 % percentile bootstrap interval ({} resamples, seed {:#x}; `mean` rows resample \
-             within scenes). An interval that excludes 0 marks a difference the seeds support.\n",
-            stats::RESAMPLES,
-            stats::BOOTSTRAP_SEED
-        );
-        let mut t = Vec::new();
-        let mut all_rows = rows.to_vec();
-        if lay.conditions.len() > 1 {
-            all_rows.push(Row {
-                label: "all conditions".into(),
-                condition: String::new(),
-                scene: None,
-            });
-        }
-        for r in &all_rows {
-            let mut line = vec![r.label.clone()];
-            for &a in &others {
-                let strata = if r.condition.is_empty() {
-                    lay.conditions
-                        .iter()
-                        .flat_map(|c| {
-                            let row = Row {
-                                label: String::new(),
-                                condition: c.clone(),
-                                scene: None,
-                            };
-                            lay.paired(&row, a, m_chamfer)
-                        })
-                        .collect()
-                } else {
-                    lay.paired(r, a, m_chamfer)
-                };
-                let label = format!(
-                    "{}|{}|{}",
-                    r.condition,
-                    r.scene.as_deref().unwrap_or("*"),
-                    arm_name(a)
-                );
-                let ci = stats::paired_ci(&label, &strata);
-                line.push(fmt_ci(&ci));
-                diffs.push(DiffSummary {
-                    row: r.label.clone(),
-                    arm: arm_name(a).into(),
-                    chamfer_diff: ci,
-                });
-            }
-            t.push(line);
-        }
-        let mut h = vec![first_col.to_string()];
-        h.extend(
-            others
-                .iter()
-                .map(|a| format!("{} − baseline", arm_title(*a))),
-        );
-        md_table(&mut md, &h, &t);
+    // Geometry against the ground truth, when the runs recorded it (issue 13).
+    if records.iter().any(|r| r.geometry.is_some()) {
+        super::hard::geometry_section(&mut md, lay);
     }
+
+    // Paired differences.
+    let diffs = paired_section(&mut md, lay, rows);
 
     // Against the paper (Table 2 only: the figures of DESIGN §8).
     if o.grid == Grid::Table2 && lay.has_baseline_and_others() {
@@ -447,6 +402,82 @@ pub(super) fn report_md(
         }
     );
     (md, diffs)
+}
+
+/// The paired differences `arm − baseline` of `rows` (with an "all conditions" row when there
+/// are several), when the study has a baseline and another arm; what it shows, for
+/// `summary.json`.
+pub(super) fn paired_section(md: &mut String, lay: &Layout<'_>, rows: &[Row]) -> Vec<DiffSummary> {
+    let mut diffs = Vec::new();
+    let first_col = first_column(lay);
+    if lay.has_baseline_and_others() {
+        let others: Vec<AugMode> = lay
+            .arms
+            .iter()
+            .copied()
+            .filter(|a| *a != AugMode::None)
+            .collect();
+        let _ = writeln!(
+            md,
+            "## Paired differences arm − baseline (Chamfer, mm; negative: the arm is better)\n\n\
+             Mean difference over pairs of runs with the same condition, scene and seed, with a \
+             95 % percentile bootstrap interval ({} resamples, seed {:#x}; `mean` rows resample \
+             within scenes). An interval that excludes 0 marks a difference the seeds support.\n",
+            stats::RESAMPLES,
+            stats::BOOTSTRAP_SEED
+        );
+        let mut t = Vec::new();
+        let mut all_rows = rows.to_vec();
+        if lay.conditions.len() > 1 {
+            all_rows.push(Row {
+                label: "all conditions".into(),
+                condition: String::new(),
+                scene: None,
+            });
+        }
+        for r in &all_rows {
+            let mut line = vec![r.label.clone()];
+            for &a in &others {
+                let strata = if r.condition.is_empty() {
+                    lay.conditions
+                        .iter()
+                        .flat_map(|c| {
+                            let row = Row {
+                                label: String::new(),
+                                condition: c.clone(),
+                                scene: None,
+                            };
+                            lay.paired(&row, a, m_chamfer)
+                        })
+                        .collect()
+                } else {
+                    lay.paired(r, a, m_chamfer)
+                };
+                let label = format!(
+                    "{}|{}|{}",
+                    r.condition,
+                    r.scene.as_deref().unwrap_or("*"),
+                    arm_name(a)
+                );
+                let ci = stats::paired_ci(&label, &strata);
+                line.push(fmt_ci(&ci));
+                diffs.push(DiffSummary {
+                    row: r.label.clone(),
+                    arm: arm_name(a).into(),
+                    chamfer_diff: ci,
+                });
+            }
+            t.push(line);
+        }
+        let mut h = vec![first_col.to_string()];
+        h.extend(
+            others
+                .iter()
+                .map(|a| format!("{} − baseline", arm_title(*a))),
+        );
+        md_table(md, &h, &t);
+    }
+    diffs
 }
 
 #[cfg(test)]

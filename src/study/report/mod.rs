@@ -18,6 +18,7 @@
 //! `csv` the CSV files; this module writes the files and the plots.
 
 mod csv;
+mod hard;
 mod layout;
 mod markdown;
 mod paper;
@@ -25,7 +26,7 @@ mod pareto;
 mod records;
 
 pub use pareto::pareto_front;
-pub use records::{load_records, RunRecord};
+pub use records::{load_records, GeometryRecord, RunRecord};
 
 use super::grid::{arm_name, arm_title, Grid};
 use super::plot;
@@ -86,6 +87,9 @@ struct Summary {
     bootstrap_seed: u64,
     cells: Vec<CellSummary>,
     paired_differences: Vec<DiffSummary>,
+    /// The geometry against the ground truth (`hard`, or runs that recorded it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    geometry: Option<hard::GeometrySummary>,
 }
 
 /// Collects the study in `dir` and writes the report files into `to` (created).
@@ -109,7 +113,12 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
         .map(|r| r.id.clone())
         .collect();
     let pareto = plan::is_pareto(&plan).then(|| pareto::pareto_points(&lay));
-    let (md, diffs) = markdown::report_md(&lay, &rows, &missing, pareto.as_deref());
+    let with_geometry = o.grid == Grid::Hard || records.iter().any(|r| r.geometry.is_some());
+    let (md, diffs) = if o.grid == Grid::Hard {
+        hard::report_md(&lay, &missing)
+    } else {
+        markdown::report_md(&lay, &rows, &missing, pareto.as_deref())
+    };
     put("report.md", md.as_bytes())?;
 
     // Per-run data.
@@ -147,6 +156,7 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
         bootstrap_seed: stats::BOOTSTRAP_SEED,
         cells,
         paired_differences: diffs,
+        geometry: with_geometry.then(|| hard::summarise(&lay)),
     };
     let json = serde_json::to_string_pretty(&summary).expect("summary serialises");
     put("summary.json", format!("{json}\n").as_bytes())?;

@@ -1,7 +1,7 @@
 //! Reading the run folders: each finished run's `metrics.json`, checked against the plan, as a
 //! [`RunRecord`].
 
-use super::super::grid::{arm_name, scene_label};
+use super::super::grid::{arm_name, scene_label, Grid};
 use super::super::plan::{
     self, run_dir, run_state, RunSpec, RunState, StudyPlan, BASE_CONFIG_FILE,
 };
@@ -49,6 +49,52 @@ pub struct RunRecord {
     /// Load + prepare + train + mesh, with the source run's training time for a reused training:
     /// what producing this mesh costs, without scoring and held-out renders.
     pub time_to_mesh: f64,
+    /// The geometry against the ground truth (issue 13), for the `hard` grid and for any run
+    /// whose `metrics.json` knows the truth (a floor or a ground-truth genus). Absent otherwise,
+    /// so the files of studies collected before it existed regenerate unchanged.
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub geometry: Option<GeometryRecord>,
+}
+
+/// A run's geometry against the ground truth: `metrics.json`'s floor, ratio and genus fields
+/// (`None` where the record does not have them, e.g. one written before they existed).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct GeometryRecord {
+    /// The scene's Chamfer floor (mm).
+    pub floor_mm: Option<f64>,
+    /// Chamfer sum / floor.
+    pub ratio_to_floor: Option<f64>,
+    /// Genus of the written mesh's largest component.
+    pub genus: Option<i64>,
+    /// Genus of the true mesh's largest component.
+    pub gt_genus: Option<i64>,
+    pub genus_matches: Option<bool>,
+    /// Components of the marching-cubes mesh, before clean-up.
+    pub components_raw: Option<usize>,
+    /// Components of the written (cleaned) mesh.
+    pub components: Option<usize>,
+    /// Mean angle between rendered and true normals on the held-out views (degrees).
+    pub normal_error_deg: Option<f64>,
+}
+
+impl GeometryRecord {
+    fn of(m: &Metrics) -> Self {
+        // A record without a mesh summary reads as 0 faces (serde default), and one older than
+        // the clean-up has no raw counts: unknown, not zero. (An empty mesh reads as unknown
+        // too; its record says so in `eval_note`.)
+        let raw_known = m.mesh.raw_faces > 0;
+        let known = raw_known || m.mesh.faces > 0;
+        Self {
+            floor_mm: m.floor_mm,
+            ratio_to_floor: m.ratio_to_floor,
+            genus: m.mesh.largest_genus,
+            gt_genus: m.gt_genus,
+            genus_matches: m.genus_matches,
+            components_raw: raw_known.then_some(m.mesh.raw_components),
+            components: known.then_some(m.mesh.components),
+            normal_error_deg: m.normal_error_deg,
+        }
+    }
 }
 
 /// Reads every finished run of the study in `dir`, checking each against the plan.
@@ -81,7 +127,7 @@ pub fn load_records(dir: &Path) -> Result<(StudyPlan, Vec<RunRecord>), StudyErro
         if state != RunState::Done {
             continue;
         }
-        records.push(read_record(dir, spec)?);
+        records.push(read_record(dir, spec, plan.options.grid)?);
     }
     // A reused training costs the source run's training time.
     let train_of: std::collections::BTreeMap<String, f64> = records
@@ -104,7 +150,7 @@ pub fn load_records(dir: &Path) -> Result<(StudyPlan, Vec<RunRecord>), StudyErro
     Ok((plan, records))
 }
 
-fn read_record(dir: &Path, spec: &RunSpec) -> Result<RunRecord, StudyError> {
+fn read_record(dir: &Path, spec: &RunSpec, grid: Grid) -> Result<RunRecord, StudyError> {
     let path = run_dir(dir, &spec.id).join("metrics.json");
     let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
     let m: Metrics = serde_json::from_str(&text).map_err(|e| StudyError::Parse {
@@ -148,5 +194,7 @@ fn read_record(dir: &Path, spec: &RunSpec) -> Result<RunRecord, StudyError> {
         time_render: t.render,
         time_total: t.total,
         time_to_mesh: t.load + t.prepare + t.train + t.mesh,
+        geometry: (grid == Grid::Hard || m.floor_mm.is_some() || m.gt_genus.is_some())
+            .then(|| GeometryRecord::of(&m)),
     })
 }
