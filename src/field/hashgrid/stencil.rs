@@ -414,6 +414,7 @@ impl HashGrid {
 #[cfg(test)]
 mod tests {
     use super::super::tests::small;
+    use crate::field::config::HashGridConfig;
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64Mcg;
