@@ -6,7 +6,6 @@
 use super::config::{invalid, ConfigError, RunConfig};
 use super::preset::Preset;
 
-
 /// Deep-merges `over` into `base` (tables merge key by key; other values replace).
 fn merge(base: &mut toml::Value, over: toml::Value) {
     match (base, over) {

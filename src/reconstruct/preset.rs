@@ -9,7 +9,6 @@ use crate::train::TrainConfig;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
-
 /// Named starting points. `fast` and `default` are sized for a 2-core CPU; `paper` follows
 /// instant-nsr-pl `configs/neus-dtu-wmask.yaml` as closely as a CPU allows (hours).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]

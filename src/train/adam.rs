@@ -213,7 +213,13 @@ impl AdamW {
     /// Pass 2: writes the updated parameters and moments (checked by [`check`](Self::check)),
     /// reading the gradients through `grads` (which zeroes each one after use when it is
     /// `&mut [f32]`, see [`Grads`]).
-    fn write<G: Grads>(&mut self, params: &mut [f32], mut grads: G, layout: &ParamLayout, factor: f32) {
+    fn write<G: Grads>(
+        &mut self,
+        params: &mut [f32],
+        mut grads: G,
+        layout: &ParamLayout,
+        factor: f32,
+    ) {
         let c = self.config.clone();
         let (bc1, sbc2) = self.corrections();
         for grp in &layout.groups {

@@ -9,7 +9,6 @@
 use super::{corner_of, corner_weights, HashGrid, PRIMES};
 use crate::field::Real;
 
-
 /// Point `p` of a finite-difference stencil: 0 = the centre, `1 + 2a` / `2 + 2a` = the centre
 /// with axis `a` set to `taps[a][0]` / `taps[a][1]`.
 #[inline(always)]
@@ -414,8 +413,8 @@ impl HashGrid {
 #[cfg(test)]
 mod tests {
     use super::super::tests::small;
-    use crate::field::config::HashGridConfig;
     use super::*;
+    use crate::field::config::HashGridConfig;
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 

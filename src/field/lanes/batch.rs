@@ -44,7 +44,10 @@ impl<T: Real> Ring<T> {
     #[inline(always)]
     fn slot_mut(&mut self, i: usize) -> (&mut [Plan<T>], &mut bool) {
         let s = i % RING;
-        (&mut self.plans[s * self.nb..(s + 1) * self.nb], &mut self.ok[s])
+        (
+            &mut self.plans[s * self.nb..(s + 1) * self.nb],
+            &mut self.ok[s],
+        )
     }
 
     /// Sample `i`'s slot, to compute from.
@@ -100,13 +103,7 @@ impl<'a, T: Real> Blocks<'a, T> {
     /// `plans` and prefetches from `buf` what the block will touch; false if a tap moves more
     /// than one cell on an active lane.
     #[inline(always)]
-    fn plan_stencil(
-        &self,
-        uc: [T; 3],
-        ut: [[T; 2]; 3],
-        plans: &mut [Plan<T>],
-        buf: &[T],
-    ) -> bool {
+    fn plan_stencil(&self, uc: [T; 3], ut: [[T; 2]; 3], plans: &mut [Plan<T>], buf: &[T]) -> bool {
         let mut good = true;
         for (bi, blk) in self.blocks.iter().enumerate().take(self.live) {
             let pl = &mut plans[bi];
