@@ -21,6 +21,8 @@ pub mod config;
 pub mod lock;
 pub mod metrics;
 pub mod normal_error;
+mod overrides;
+mod preset;
 
 pub use config::{
     parse_set, resolve, resolve_resume, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig,

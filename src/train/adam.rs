@@ -16,6 +16,7 @@
 use crate::field::ParamLayout;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::ops::Range;
 
 /// Optimiser hyper-parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -126,7 +127,7 @@ impl AdamW {
         factor: f32,
     ) -> Result<(), OptimError> {
         self.check(params, grads, layout, factor)?;
-        self.write_zero(params, grads, layout, factor);
+        self.write(params, grads, layout, factor);
         Ok(())
     }
 
@@ -209,35 +210,13 @@ impl AdamW {
         Ok(())
     }
 
-    /// Pass 2: writes the updated parameters and moments (checked by [`check`](Self::check)).
-    fn write(&mut self, params: &mut [f32], grads: &[f32], layout: &ParamLayout, factor: f32) {
-        let c = self.config.clone();
-        let (bc1, sbc2) = self.corrections();
-        for grp in &layout.groups {
-            let r = grp.range();
-            let lr = c.lr * grp.lr_scale * factor;
-            params[r.clone()]
-                .par_chunks_mut(BLOCK)
-                .zip(grads[r.clone()].par_chunks(BLOCK))
-                .zip(self.m[r.clone()].par_chunks_mut(BLOCK))
-                .zip(self.v[r.clone()].par_chunks_mut(BLOCK))
-                .for_each(|(((p, g), m), v)| {
-                    for i in 0..p.len() {
-                        let (np, nm, nv) = Self::update(p[i], g[i], m[i], v[i], lr, &c, bc1, sbc2);
-                        p[i] = np;
-                        m[i] = nm;
-                        v[i] = nv;
-                    }
-                });
-        }
-        self.t += 1;
-    }
-
-    /// [`write`](Self::write), zeroing each gradient after use.
-    fn write_zero(
+    /// Pass 2: writes the updated parameters and moments (checked by [`check`](Self::check)),
+    /// reading the gradients through `grads` (which zeroes each one after use when it is
+    /// `&mut [f32]`, see [`Grads`]).
+    fn write<G: Grads>(
         &mut self,
         params: &mut [f32],
-        grads: &mut [f32],
+        mut grads: G,
         layout: &ParamLayout,
         factor: f32,
     ) {
@@ -248,20 +227,70 @@ impl AdamW {
             let lr = c.lr * grp.lr_scale * factor;
             params[r.clone()]
                 .par_chunks_mut(BLOCK)
-                .zip(grads[r.clone()].par_chunks_mut(BLOCK))
+                .zip(grads.blocks(r.clone()))
                 .zip(self.m[r.clone()].par_chunks_mut(BLOCK))
                 .zip(self.v[r.clone()].par_chunks_mut(BLOCK))
-                .for_each(|(((p, g), m), v)| {
+                .for_each(|(((p, mut g), m), v)| {
                     for i in 0..p.len() {
-                        let (np, nm, nv) = Self::update(p[i], g[i], m[i], v[i], lr, &c, bc1, sbc2);
+                        let gi = G::take(&mut g, i);
+                        let (np, nm, nv) = Self::update(p[i], gi, m[i], v[i], lr, &c, bc1, sbc2);
                         p[i] = np;
                         m[i] = nm;
                         v[i] = nv;
-                        g[i] = 0.0;
                     }
                 });
         }
         self.t += 1;
+    }
+}
+
+/// The gradient buffer as [`AdamW::write`] reads it, in the same parallel blocks of [`BLOCK`]
+/// values as the parameters: `&[f32]` reads each gradient, `&mut [f32]` reads it and sets it to
+/// zero (the fused [`AdamW::step_and_zero_grads`]).
+trait Grads {
+    /// One block of gradients.
+    type Block<'a>: Send
+    where
+        Self: 'a;
+
+    /// The blocks of the flat range `r`.
+    fn blocks(&mut self, r: Range<usize>) -> impl IndexedParallelIterator<Item = Self::Block<'_>>;
+
+    /// Gradient `i` of a block (zeroing it, for the mutable form).
+    fn take(block: &mut Self::Block<'_>, i: usize) -> f32;
+}
+
+impl Grads for &[f32] {
+    type Block<'a>
+        = &'a [f32]
+    where
+        Self: 'a;
+
+    fn blocks(&mut self, r: Range<usize>) -> impl IndexedParallelIterator<Item = &[f32]> {
+        self[r].par_chunks(BLOCK)
+    }
+
+    #[inline(always)]
+    fn take(block: &mut &[f32], i: usize) -> f32 {
+        block[i]
+    }
+}
+
+impl Grads for &mut [f32] {
+    type Block<'a>
+        = &'a mut [f32]
+    where
+        Self: 'a;
+
+    fn blocks(&mut self, r: Range<usize>) -> impl IndexedParallelIterator<Item = &mut [f32]> {
+        self[r].par_chunks_mut(BLOCK)
+    }
+
+    #[inline(always)]
+    fn take(block: &mut &mut [f32], i: usize) -> f32 {
+        let g = block[i];
+        block[i] = 0.0;
+        g
     }
 }
 

@@ -1,0 +1,479 @@
+//! The batched drivers of the level-parallel stencil ([`HashGrid::encode_fd_batch`],
+//! [`HashGrid::encode_fd_backward_batch`], [`HashGrid::encode_batch`]) and the one software
+//! pipeline they share: each sample is planned (cells, fractions, table indices) and its table
+//! lines prefetched [`PREFETCH_AHEAD`] samples before it is computed, its plans kept in a ring of
+//! slots ([`Ring`]).
+
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
+use super::{
+    block_backward, block_forward, block_prefetch, corner, faces, gather, prefetch, LaneBlock,
+    LaneConsts, Plan, L, LANES,
+};
+use crate::field::hashgrid::{fd_point, HashGrid};
+use crate::field::Real;
+
+/// Samples between planning (and prefetching) a sample and encoding it.
+const PREFETCH_AHEAD: usize = 8;
+/// Plan slots: the samples in flight plus the one in use.
+const RING: usize = PREFETCH_AHEAD + 1;
+
+/// The plans of the samples in flight: sample `i`'s plans (one per block) live in slot
+/// `i % RING`, beside a flag saying whether every block could plan it.
+struct Ring<T> {
+    /// Blocks per sample.
+    nb: usize,
+    /// `[RING][nb]` plans, slot-major.
+    plans: Vec<Plan<T>>,
+    /// Per slot: false when a tap of the slot's sample moves more than one cell on an active
+    /// lane (the sample then goes through the per-level path).
+    ok: [bool; RING],
+}
+
+impl<T: Real> Ring<T> {
+    fn new(nb: usize) -> Self {
+        Self {
+            nb,
+            plans: vec![Plan::default(); RING * nb],
+            ok: [true; RING],
+        }
+    }
+
+    /// Sample `i`'s slot, to plan into.
+    #[inline(always)]
+    fn slot_mut(&mut self, i: usize) -> (&mut [Plan<T>], &mut bool) {
+        let s = i % RING;
+        (
+            &mut self.plans[s * self.nb..(s + 1) * self.nb],
+            &mut self.ok[s],
+        )
+    }
+
+    /// Sample `i`'s slot, to compute from.
+    #[inline(always)]
+    fn slot(&self, i: usize) -> (&[Plan<T>], bool) {
+        let s = i % RING;
+        (&self.plans[s * self.nb..(s + 1) * self.nb], self.ok[s])
+    }
+}
+
+/// The software pipeline of the three batched drivers, over samples `0..n`: sample `i` is
+/// planned (`plan(ring, ctx, i)`, which also prefetches what it will read) [`PREFETCH_AHEAD`]
+/// samples before it is computed (`compute(ring, ctx, i)`), so its table loads are in flight
+/// while the samples between are computed. `ctx` is the buffer both phases touch: the one
+/// `compute` writes (encodings or gradients), which `plan` may read (prefetch).
+#[inline(always)]
+fn pipeline<T, C: ?Sized>(
+    n: usize,
+    ring: &mut Ring<T>,
+    ctx: &mut C,
+    mut plan: impl FnMut(&mut Ring<T>, &C, usize),
+    mut compute: impl FnMut(&Ring<T>, &mut C, usize),
+) {
+    for i in 0..n.min(PREFETCH_AHEAD) {
+        plan(ring, ctx, i);
+    }
+    for i in 0..n {
+        if i + PREFETCH_AHEAD < n {
+            plan(ring, ctx, i + PREFETCH_AHEAD);
+        }
+        compute(ring, ctx, i);
+    }
+}
+
+/// Per-call constants of the level-parallel path: the blocks, their lane constants for `active`
+/// levels, and how many blocks hold an active level (`live`; the others output zeros).
+struct Blocks<'a, T> {
+    blocks: &'a [LaneBlock],
+    consts: Vec<LaneConsts<T>>,
+    live: usize,
+}
+
+impl<'a, T: Real> Blocks<'a, T> {
+    fn new(blocks: &'a [LaneBlock], active: usize) -> Self {
+        Self {
+            blocks,
+            consts: blocks.iter().map(|b| b.consts(active)).collect(),
+            live: blocks.iter().filter(|b| b.level0 < active).count(),
+        }
+    }
+
+    /// Plans a stencil sample (unit centre `uc`, unit taps `ut`) for every live block into
+    /// `plans` and prefetches from `buf` what the block will touch; false if a tap moves more
+    /// than one cell on an active lane.
+    #[inline(always)]
+    fn plan_stencil(&self, uc: [T; 3], ut: [[T; 2]; 3], plans: &mut [Plan<T>], buf: &[T]) -> bool {
+        let mut good = true;
+        for (bi, blk) in self.blocks.iter().enumerate().take(self.live) {
+            let pl = &mut plans[bi];
+            good &= blk.plan(&self.consts[bi], uc, ut, true, pl);
+            if good {
+                block_prefetch(blk, pl, buf);
+            }
+        }
+        good
+    }
+}
+
+impl HashGrid {
+    fn unit_stencil<T: Real>(x: [T; 3], taps: [[T; 2]; 3], radius: T) -> ([T; 3], [[T; 2]; 3]) {
+        let inv = T::ONE / (radius + radius);
+        let uc = [0, 1, 2].map(|a| (x[a] + radius) * inv);
+        let ut = [0, 1, 2].map(|a| [(taps[a][0] + radius) * inv, (taps[a][1] + radius) * inv]);
+        (uc, ut)
+    }
+
+    /// Batched [`encode_fd`](Self::encode_fd) over the samples of a chunk: sample `i`'s centre
+    /// `xs[i]` and taps `taps[i]`, rows from `rows(i)`. Uses the level-parallel blocks when
+    /// `F = 2` (falling back per sample when a tap moves more than one cell), planning each
+    /// sample 8 samples before its use and prefetching what it will read. Same
+    /// values as calling [`encode_fd`](Self::encode_fd) per sample up to rounding (tested).
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_fd_batch<T: Real>(
+        &self,
+        table: &[T],
+        xs: &[[T; 3]],
+        taps: &[[[T; 2]; 3]],
+        radius: T,
+        active: usize,
+        out: &mut [T],
+        rows: impl Fn(usize) -> [usize; 7],
+    ) {
+        self.fd_batch(table, xs, taps, radius, active, out, &rows);
+    }
+
+    /// Batched [`encode_fd_backward`](Self::encode_fd_backward) (see
+    /// [`encode_fd_batch`](Self::encode_fd_batch)): scatter-adds into `grad`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn encode_fd_backward_batch<T: Real>(
+        &self,
+        xs: &[[T; 3]],
+        taps: &[[[T; 2]; 3]],
+        radius: T,
+        active: usize,
+        d_out: &[T],
+        rows: impl Fn(usize) -> [usize; 7],
+        grad: &mut [T],
+    ) {
+        self.fd_batch_bwd(xs, taps, radius, active, d_out, &rows, grad);
+    }
+
+    /// Batched [`encode`](Self::encode) of points without taps (SDF queries: occupancy updates,
+    /// marching cubes): point `i`'s encoding goes to `out[i·stride..i·stride + output_dim]`.
+    /// Level-parallel blocks with prefetching when `F = 2`, the per-level path otherwise; same
+    /// values up to rounding (tested).
+    pub fn encode_batch<T: Real>(
+        &self,
+        table: &[T],
+        xs: &[[T; 3]],
+        radius: T,
+        active: usize,
+        out: &mut [T],
+        stride: usize,
+    ) {
+        assert!(table.len() >= self.n_params() && stride >= self.output_dim());
+        assert!(
+            out.len() >= xs.len().saturating_sub(1) * stride + self.output_dim() || xs.is_empty()
+        );
+        let Some(blocks) = self.lane_blocks() else {
+            for (i, x) in xs.iter().enumerate() {
+                self.encode(table, *x, radius, active, &mut out[i * stride..]);
+            }
+            return;
+        };
+        let xd = self.xyz_dim();
+        let b = Blocks::<T>::new(blocks, active);
+        let inv = T::ONE / (radius + radius);
+        let unit = |x: [T; 3]| [0, 1, 2].map(|a| (x[a] + radius) * inv);
+        let mut ring = Ring::new(blocks.len());
+        let plan = |ring: &mut Ring<T>, _: &[T], i: usize| {
+            let uc = unit(xs[i]);
+            let (plans, _) = ring.slot_mut(i);
+            for (bi, blk) in blocks.iter().enumerate().take(b.live) {
+                let pl = &mut plans[bi];
+                blk.plan_centre(&b.consts[bi], uc, pl);
+                for c in [0usize, 2, 4, 6] {
+                    for l in (0..2 * blk.n_levels).step_by(2) {
+                        prefetch(table, pl.ce[c][l]);
+                    }
+                }
+            }
+        };
+        let compute = |ring: &Ring<T>, out: &mut [T], i: usize| {
+            let row = i * stride;
+            if self.include_xyz {
+                for d in 0..3 {
+                    out[row + d] = xs[i][d] / radius;
+                }
+            }
+            let (plans, _) = ring.slot(i);
+            for (bi, blk) in blocks.iter().enumerate() {
+                let o = row + xd + 2 * blk.level0;
+                let n = 2 * blk.n_levels;
+                if bi >= b.live {
+                    out[o..o + n].fill(T::ZERO);
+                    continue;
+                }
+                let pl = &plans[bi];
+                let k = &b.consts[bi];
+                let cv: [L<T>; 8] = std::array::from_fn(|c| gather(table, &pl.ce[c]));
+                let wq = faces(&pl.w, 0);
+                let mut v = [T::ZERO; LANES];
+                for l in 0..LANES {
+                    let (mut f0, mut f1) = (T::ZERO, T::ZERO);
+                    for q in 0..4 {
+                        f0 = wq[q][l].fma(cv[corner(0, 0, q)][l], f0);
+                        f1 = wq[q][l].fma(cv[corner(0, 1, q)][l], f1);
+                    }
+                    let x = pl.w[0][0][l].fma(f0, pl.w[0][1][l] * f1);
+                    v[l] = if k.act[l] != 0 { x } else { T::ZERO };
+                }
+                out[o..o + n].copy_from_slice(&v[..n]);
+            }
+        };
+        pipeline(xs.len(), &mut ring, out, plan, compute);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fd_batch<T: Real>(
+        &self,
+        table: &[T],
+        xs: &[[T; 3]],
+        taps: &[[[T; 2]; 3]],
+        radius: T,
+        active: usize,
+        out: &mut [T],
+        rows: &dyn Fn(usize) -> [usize; 7],
+    ) {
+        assert!(table.len() >= self.n_params() && taps.len() == xs.len());
+        let Some(blocks) = self.lane_blocks() else {
+            for i in 0..xs.len() {
+                self.encode_fd(table, xs[i], taps[i], radius, active, out, &rows(i));
+            }
+            return;
+        };
+        let xd = self.xyz_dim();
+        let b = Blocks::<T>::new(blocks, active);
+        let mut ring = Ring::new(blocks.len());
+        let plan = |ring: &mut Ring<T>, _: &[T], i: usize| {
+            let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
+            let (plans, ok) = ring.slot_mut(i);
+            *ok = b.plan_stencil(uc, ut, plans, table);
+        };
+        let compute = |ring: &Ring<T>, out: &mut [T], i: usize| {
+            let r = rows(i);
+            let (plans, ok) = ring.slot(i);
+            if !ok {
+                // Rare: the whole sample through the per-level path.
+                self.encode_fd(table, xs[i], taps[i], radius, active, out, &r);
+                return;
+            }
+            for (bi, blk) in blocks.iter().enumerate() {
+                let br = r.map(|v| v + xd + 2 * blk.level0);
+                if bi >= b.live {
+                    for p in 0..7 {
+                        out[br[p]..br[p] + 2 * blk.n_levels].fill(T::ZERO);
+                    }
+                    continue;
+                }
+                block_forward(blk, &b.consts[bi], &plans[bi], table, out, &br);
+            }
+            if self.include_xyz {
+                for p in 0..7 {
+                    let pt = fd_point(xs[i], taps[i], p);
+                    for d in 0..3 {
+                        out[r[p] + d] = pt[d] / radius;
+                    }
+                }
+            }
+        };
+        pipeline(xs.len(), &mut ring, out, plan, compute);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fd_batch_bwd<T: Real>(
+        &self,
+        xs: &[[T; 3]],
+        taps: &[[[T; 2]; 3]],
+        radius: T,
+        active: usize,
+        d_out: &[T],
+        rows: &dyn Fn(usize) -> [usize; 7],
+        grad: &mut [T],
+    ) {
+        assert!(grad.len() >= self.n_params() && taps.len() == xs.len());
+        let Some(blocks) = self.lane_blocks() else {
+            for i in 0..xs.len() {
+                self.encode_fd_backward(xs[i], taps[i], radius, active, d_out, &rows(i), grad);
+            }
+            return;
+        };
+        let xd = self.xyz_dim();
+        let b = Blocks::<T>::new(blocks, active);
+        let mut ring = Ring::new(blocks.len());
+        let plan = |ring: &mut Ring<T>, grad: &[T], i: usize| {
+            let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
+            let (plans, ok) = ring.slot_mut(i);
+            *ok = b.plan_stencil(uc, ut, plans, grad);
+        };
+        let compute = |ring: &Ring<T>, grad: &mut [T], i: usize| {
+            let r = rows(i);
+            let (plans, ok) = ring.slot(i);
+            if !ok {
+                self.encode_fd_backward(xs[i], taps[i], radius, active, d_out, &r, grad);
+                return;
+            }
+            for (bi, blk) in blocks.iter().enumerate().take(b.live) {
+                let br = r.map(|v| v + xd + 2 * blk.level0);
+                block_backward(blk, &b.consts[bi], &plans[bi], grad, d_out, &br);
+            }
+        };
+        pipeline(xs.len(), &mut ring, grad, plan, compute);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::config::HashGridConfig;
+    use crate::field::hashgrid::fd_points;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64Mcg;
+
+    /// The batched level-parallel path against the naive reference, forward and backward, on
+    /// grids with a partial last block, dense and hashed levels, with and without the xyz prefix:
+    /// taps one cell away on fine levels, inside the cell, several cells away (per-sample
+    /// fallback), at the box faces, and every progressive mask.
+    #[test]
+    fn batch_matches_naive() {
+        let mut rng = Pcg64Mcg::seed_from_u64(23);
+        let mut worst = 0.0f64;
+        for (n_levels, log2, include_xyz) in [(11usize, 12u32, true), (16, 10, false), (3, 8, true)]
+        {
+            let g = HashGrid::new(&HashGridConfig {
+                n_levels,
+                n_features_per_level: 2,
+                log2_hashmap_size: log2,
+                base_resolution: 4.0,
+                per_level_scale: 1.45,
+                include_xyz,
+                ..Default::default()
+            });
+            assert!(g.lane_blocks().is_some());
+            let table: Vec<f64> = (0..g.n_params())
+                .map(|_| rng.random_range(-1.0..1.0))
+                .collect();
+            let r = 0.8;
+            let d = g.output_dim();
+            for active in [n_levels, 1, n_levels / 2 + 1] {
+                let n = 64;
+                let mut xs = Vec::new();
+                let mut taps = Vec::new();
+                for i in 0..n {
+                    let mut c = [0.0; 3];
+                    for v in c.iter_mut() {
+                        *v = rng.random_range(-r..r);
+                    }
+                    if i % 9 == 0 {
+                        c = [r, -r, rng.random_range(-r..r)];
+                    }
+                    let eps = match i % 4 {
+                        0 | 1 => g.fd_eps(active, r),
+                        2 => 0.3 * g.fd_eps(active, r),
+                        _ => 0.2, // several cells: per-sample fallback
+                    };
+                    xs.push(c);
+                    taps.push([0, 1, 2].map(|a| [(c[a] + eps).min(r), (c[a] - eps).max(-r)]));
+                }
+                let rows = |i: usize| -> [usize; 7] {
+                    let b = n + 6 * i;
+                    [
+                        i * d,
+                        b * d,
+                        (b + 1) * d,
+                        (b + 2) * d,
+                        (b + 3) * d,
+                        (b + 4) * d,
+                        (b + 5) * d,
+                    ]
+                };
+                let mut out = vec![7.0; 7 * n * d];
+                g.encode_fd_batch(&table, &xs, &taps, r, active, &mut out, rows);
+                let dout: Vec<f64> = (0..7 * n * d)
+                    .map(|_| rng.random_range(-1.0..1.0))
+                    .collect();
+                let mut gf = vec![0.0; g.n_params()];
+                g.encode_fd_backward_batch(&xs, &taps, r, active, &dout, rows, &mut gf);
+                let mut gn = vec![0.0; g.n_params()];
+                for i in 0..n {
+                    let pts = fd_points(xs[i], taps[i]);
+                    let rw = rows(i);
+                    for p in 0..7 {
+                        let want = g.encode_naive(&table, pts[p], r, active);
+                        for j in 0..d {
+                            worst = worst.max((want[j] - out[rw[p] + j]).abs());
+                        }
+                        g.encode_backward_naive(
+                            pts[p],
+                            r,
+                            active,
+                            &dout[rw[p]..rw[p] + d],
+                            &mut gn,
+                        );
+                    }
+                }
+                for (a, b) in gf.iter().zip(&gn) {
+                    worst = worst.max((a - b).abs());
+                }
+            }
+        }
+        assert!(worst < 1e-12, "level-parallel vs naive max diff {worst}");
+    }
+
+    /// The batched centre-only encoding against the naive reference: inside, on and outside the
+    /// box (wrapping cells), every progressive mask, F = 2 (level-parallel) and F = 1 (fallback).
+    #[test]
+    fn centre_batch_matches_naive() {
+        let mut rng = Pcg64Mcg::seed_from_u64(29);
+        let mut worst = 0.0f64;
+        for (f, n_levels) in [(2usize, 11usize), (1, 5)] {
+            let g = HashGrid::new(&HashGridConfig {
+                n_levels,
+                n_features_per_level: f,
+                log2_hashmap_size: 12,
+                base_resolution: 4.0,
+                per_level_scale: 1.45,
+                ..Default::default()
+            });
+            assert_eq!(g.lane_blocks().is_some(), f == 2);
+            let table: Vec<f64> = (0..g.n_params())
+                .map(|_| rng.random_range(-1.0..1.0))
+                .collect();
+            let r = 0.8;
+            let d = g.output_dim();
+            let stride = d + 3;
+            let xs: Vec<[f64; 3]> = (0..50)
+                .map(|i| match i % 10 {
+                    0 => [r, -r, r],
+                    1 => [1.7 * r, -2.3 * r, 0.0],
+                    _ => [0, 1, 2].map(|_| rng.random_range(-r..r)),
+                })
+                .collect();
+            for active in [n_levels, 1, n_levels / 2 + 1] {
+                let mut out = vec![5.0; xs.len() * stride];
+                g.encode_batch(&table, &xs, r, active, &mut out, stride);
+                for (i, x) in xs.iter().enumerate() {
+                    let want = g.encode_naive(&table, *x, r, active);
+                    for j in 0..d {
+                        worst = worst.max((want[j] - out[i * stride + j]).abs());
+                    }
+                    assert!(out[i * stride + d..(i + 1) * stride]
+                        .iter()
+                        .all(|&v| v == 5.0));
+                }
+            }
+        }
+        assert!(worst < 1e-12, "centre batch vs naive max diff {worst}");
+    }
+}
