@@ -21,8 +21,10 @@ pub mod config;
 pub mod lock;
 pub mod metrics;
 pub mod normal_error;
+mod output;
 mod overrides;
 mod preset;
+mod truth;
 
 pub use config::{
     parse_set, resolve, resolve_resume, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig,
@@ -30,6 +32,9 @@ pub use config::{
 };
 pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use metrics::{ChamferMetrics, MeshSummary, Metrics, Timings, TrainSummary, ViewMetrics};
+pub use output::output_dir;
+use output::{check_output, remove_if_present};
+use truth::{find_gt, GeometryVsTruth};
 
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
 use crate::mesh::clean::{clean_mesh, CleanOptions};
@@ -200,173 +205,6 @@ pub struct RunOptions {
 /// ([`dtu_eval::atomic::write_atomic`]).
 fn write_atomic(path: &Path, text: &str) -> Result<(), ReconstructError> {
     dtu_eval::atomic::write_atomic(path, text.as_bytes()).map_err(io_err(path))
-}
-
-/// The output folder of a run.
-pub fn output_dir(cfg: &RunConfig, scene: &ResolvedScene) -> PathBuf {
-    cfg.out.clone().unwrap_or_else(|| {
-        PathBuf::from("runs").join(format!(
-            "{}-{}-{}-s{}",
-            scene.name,
-            cfg.augment.mode.name(),
-            cfg.preset.name(),
-            cfg.seed
-        ))
-    })
-}
-
-/// Whether `out` holds a neus-aug run: its lock file, or (runs written before the lock existed) a
-/// `config.toml` that parses as a [`RunConfig`] beside `metrics.json` or a checkpoint, or a
-/// neus-aug checkpoint (a study copies one into a new run folder to reuse its training).
-fn is_run_folder(out: &Path) -> bool {
-    if out.join(LOCK_FILE).is_file() {
-        return true;
-    }
-    let ckpt = out.join("checkpoint.safetensors");
-    let config_ok = std::fs::read_to_string(out.join("config.toml"))
-        .ok()
-        .is_some_and(|t| toml::from_str::<RunConfig>(&t).is_ok());
-    (config_ok && (out.join("metrics.json").is_file() || ckpt.is_file()))
-        || checkpoint::is_checkpoint(&ckpt)
-}
-
-/// Checks the output folder, touching nothing: not a file; not written by another process now
-/// (unless this process holds the lock: `locked`); empty or a neus-aug run; not a finished run
-/// (unless `force`); not an unfinished one with a checkpoint (unless `resume` or `force`).
-fn check_output(out: &Path, opts: &RunOptions, locked: bool) -> Result<(), ReconstructError> {
-    let err = |problem: String| ReconstructError::Output {
-        path: out.into(),
-        problem,
-    };
-    if !out.exists() {
-        return Ok(());
-    }
-    if !out.is_dir() {
-        return Err(err("is a file, not a folder; choose another --out".into()));
-    }
-    if !locked {
-        RunLock::check_free(out)?;
-    }
-    let mut names: Vec<String> = std::fs::read_dir(out)
-        .map_err(io_err(out))?
-        .filter_map(Result::ok)
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    if !names.is_empty() && !is_run_folder(out) {
-        names.sort();
-        let shown = names.iter().take(5).cloned().collect::<Vec<_>>().join(", ");
-        let more = if names.len() > 5 { ", …" } else { "" };
-        return Err(err(format!(
-            "is not empty ({shown}{more}) and does not hold a neus-aug run; refusing to write \
-             into it: choose a new or empty --out"
-        )));
-    }
-    if out.join("metrics.json").is_file() && !opts.force {
-        return Err(err(
-            "already holds a finished run (metrics.json); use --force to redo it or another --out"
-                .into(),
-        ));
-    }
-    if out.join("checkpoint.safetensors").is_file() && !opts.resume && !opts.force {
-        return Err(err(
-            "holds the checkpoint of an unfinished run; use --resume to continue it or --force to start over"
-                .into(),
-        ));
-    }
-    Ok(())
-}
-
-/// Removes `path` if it exists (a missing file is fine; any other failure is an error).
-fn remove_if_present(path: &Path) -> Result<(), ReconstructError> {
-    match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(io_err(path)(e)),
-        _ => Ok(()),
-    }
-}
-
-/// Finds ground truth for the scene: `eval.gt_root` (+ scan) or the scene folder itself
-/// (synthetic scenes). Returns `(root, scan)` or a note saying why there is none.
-fn find_gt(
-    cfg: &RunConfig,
-    scene: &ResolvedScene,
-    truth: &sim::SceneTruth,
-) -> Result<(PathBuf, u32), String> {
-    let meta_scan = truth.scan;
-    let name_scan = || {
-        let digits: String = scene
-            .name
-            .trim_start_matches("dtu_")
-            .trim_start_matches("scan")
-            .chars()
-            .take_while(|c| c.is_ascii_digit())
-            .collect();
-        digits.parse::<u32>().ok()
-    };
-    let scan = cfg
-        .eval
-        .scan
-        .or(meta_scan)
-        .or_else(name_scan)
-        .ok_or_else(|| format!("no scan number for scene '{}' (set eval.scan)", scene.name))?;
-    let root = cfg
-        .eval
-        .gt_root
-        .clone()
-        .unwrap_or_else(|| scene.dir.clone());
-    let paths = dtu_eval::gt::GtPaths::new(&root, scan);
-    for p in [&paths.points, &paths.obs_mask, &paths.plane] {
-        if !p.is_file() {
-            return Err(format!(
-                "no ground truth: {} is missing (set eval.gt_root to DTU's 'SampleSet/MVS Data')",
-                p.display()
-            ));
-        }
-    }
-    Ok((root, scan))
-}
-
-/// The geometry figures judged against the scene's truth (`meta.json`, [`sim::SceneTruth`]).
-struct GeometryVsTruth {
-    floor_mm: Option<f64>,
-    ratio_to_floor: Option<f64>,
-    /// Genus of the written mesh's largest component (`None` for an empty mesh).
-    genus: Option<i64>,
-    gt_genus: Option<i64>,
-    genus_matches: Option<bool>,
-}
-
-impl GeometryVsTruth {
-    /// The floor applies only when the scene is scored against its own ground truth (the
-    /// floor's): not with `eval.gt_root` or `eval.scan` pointing elsewhere. It is reported even
-    /// when there is no Chamfer figure (an empty mesh); the ratio then is `None`. An empty mesh
-    /// has no genus, so it does not match a known one.
-    fn new(
-        truth: &sim::SceneTruth,
-        eval: &EvalConfig,
-        scene: &ResolvedScene,
-        chamfer: Option<&ChamferMetrics>,
-        topo: &TopologyReport,
-    ) -> Self {
-        let own_gt = eval.gt_root.as_ref().is_none_or(|r| *r == scene.dir)
-            && eval.scan.is_none_or(|s| truth.scan == Some(s));
-        let floor_mm = truth
-            .floor
-            .filter(|_| own_gt)
-            .map(|f| f.chamfer_sum)
-            .filter(|f| *f > 0.0);
-        let ratio_to_floor = match (chamfer, floor_mm) {
-            (Some(c), Some(f)) => Some(c.chamfer_sum / f),
-            _ => None,
-        };
-        let genus = (topo.faces > 0).then_some(topo.largest_genus);
-        Self {
-            floor_mm,
-            ratio_to_floor,
-            genus,
-            gt_genus: truth.genus,
-            genus_matches: truth.genus.map(|g| genus == Some(g)),
-        }
-    }
 }
 
 /// A progress display: an indicatif bar on a terminal, a line every ~5 % otherwise.
@@ -906,94 +744,4 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     );
     drop(lock);
     Ok(metrics)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn geometry_is_judged_only_against_the_scenes_own_truth() {
-        let scene = ResolvedScene {
-            dir: PathBuf::from("/scenes/torus"),
-            name: "torus".into(),
-            kind: SceneKind::Folder,
-        };
-        let truth = sim::SceneTruth {
-            scan: Some(102),
-            genus: Some(1),
-            floor: Some(sim::Floor {
-                chamfer_sum: 0.25,
-                mean_d2s: 0.15,
-                mean_s2d: 0.10,
-            }),
-        };
-        let chamfer = ChamferMetrics {
-            mean_d2s: 0.4,
-            mean_s2d: 0.6,
-            overall: 0.5,
-            chamfer_sum: 1.0,
-            gt_root: scene.dir.display().to_string(),
-            scan: 102,
-        };
-        let torus = TopologyReport {
-            vertices: 4,
-            faces: 8,
-            edges: 12,
-            boundary_edges: 0,
-            non_manifold_edges: 0,
-            misoriented_edges: 0,
-            degenerate_faces: 0,
-            unreferenced_vertices: 0,
-            components: 2,
-            euler_characteristic: 0,
-            boundary_loops: 0,
-            genus: 3,
-            largest_genus: 1,
-        };
-        let eval = EvalConfig::default();
-        let g = GeometryVsTruth::new(&truth, &eval, &scene, Some(&chamfer), &torus);
-        assert_eq!((g.floor_mm, g.ratio_to_floor), (Some(0.25), Some(4.0)));
-        // The largest component decides, not the total genus over components.
-        assert_eq!(
-            (g.genus, g.gt_genus, g.genus_matches),
-            (Some(1), Some(1), Some(true))
-        );
-        // Other ground truth: no floor, no ratio; the genus is the object's and still compares.
-        for eval in [
-            EvalConfig {
-                gt_root: Some("/dtu".into()),
-                ..EvalConfig::default()
-            },
-            EvalConfig {
-                scan: Some(24),
-                ..EvalConfig::default()
-            },
-        ] {
-            let g = GeometryVsTruth::new(&truth, &eval, &scene, Some(&chamfer), &torus);
-            assert_eq!((g.floor_mm, g.ratio_to_floor), (None, None));
-            assert_eq!(g.genus_matches, Some(true));
-        }
-        // An empty mesh: the floor is reported, no ratio, and no genus to match.
-        let empty = TopologyReport {
-            faces: 0,
-            largest_genus: 0,
-            ..torus
-        };
-        let g = GeometryVsTruth::new(&truth, &eval, &scene, None, &empty);
-        assert_eq!((g.floor_mm, g.ratio_to_floor), (Some(0.25), None));
-        assert_eq!((g.genus, g.genus_matches), (None, Some(false)));
-        // A scene that knows nothing (real DTU): everything unknown, nothing false.
-        let g = GeometryVsTruth::new(
-            &sim::SceneTruth::default(),
-            &eval,
-            &scene,
-            Some(&chamfer),
-            &torus,
-        );
-        assert_eq!(
-            (g.floor_mm, g.ratio_to_floor, g.gt_genus, g.genus_matches),
-            (None, None, None, None)
-        );
-    }
 }
