@@ -2,9 +2,12 @@
 # Round trip through the real COLMAP (issue 16, first "Must show"):
 #   1. synthesise a built-in scene (true cameras, ground truth);
 #   2. run COLMAP on its images alone: CPU SIFT with one PINHOLE camera for all images (the
-#      simulator's lens; COLMAP estimates its focal length and keeps the principal point at the
-#      image centre), the scene's masks as feature masks, exhaustive matching, the incremental
-#      mapper; keep the model with the most registered images;
+#      simulator's lens), the scene's masks as feature masks, exhaustive matching, the
+#      incremental mapper; keep the model with the most registered images. Intrinsics:
+#      `--intrinsics estimate` (default): COLMAP self-calibrates the focal lengths from its
+#      default guess and keeps the principal point at the image centre, as for photographs of
+#      unknown calibration; `--intrinsics known`: the scene's true K is given to COLMAP and held
+#      fixed (a calibrated rig, as DTU's), so only the poses come from COLMAP;
 #   3. convert that binary model to text and import both with `neus-aug import colmap` (masks
 #      passed): the two scenes must be identical byte for byte;
 #   4. reconstruct the COLMAP-posed scene and the true-camera scene with the same preset, seed and
@@ -18,12 +21,14 @@
 #      and their ratio against the acceptance bound 1.3.
 #
 #   scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S] [--iterations N]
-#                                       [--min-registered K] [--bound B]
+#                                       [--intrinsics estimate|known] [--min-registered K] [--bound B]
 #   scripts/colmap_roundtrip.sh /tmp/rt                       # blob, fast preset, seed 0
 #   scripts/colmap_roundtrip.sh /tmp/rt --iterations 800      # cheaper proof run
 #
-# WORKDIR keeps every step's output (true/, colmap/, scene_bin/, scene_txt/, runs/, logs/); a step
-# whose output is already complete is not redone, so a rerun after a failure continues. Exit
+# WORKDIR keeps every step's output (true/, colmap/, scene_bin/, scene_txt/, runs/, logs/; with
+# `--intrinsics known` the COLMAP-side names end in -known); a step whose output is already
+# complete is not redone, so a rerun after a failure continues, and the two intrinsics modes share
+# the synthetic scene and the true-camera run. Exit
 # status: 0 when the ratio is within the bound, 1 when a step failed (the message says which and
 # where its log is), 2 when every step worked but the ratio exceeds the bound.
 # Needs COLMAP (installed with apt-get when missing and run as root), python3 (numpy is installed
@@ -33,7 +38,8 @@ set -euo pipefail
 
 usage() {
   echo "usage: scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S]" \
-    "[--iterations N] [--min-registered K] [--bound B]   (details: the comment at its top)" >&2
+    "[--iterations N] [--intrinsics estimate|known] [--min-registered K] [--bound B]" \
+    "(details: the comment at its top)" >&2
   exit 1
 }
 die() { echo "colmap_roundtrip: $*" >&2; exit 1; }
@@ -45,6 +51,7 @@ seed=0
 iterations=""
 min_registered=""
 bound=1.3
+intrinsics=estimate
 while [ $# -gt 0 ]; do
   case "$1" in
     --scene) scene=${2:?--scene needs a name}; shift 2 ;;
@@ -53,12 +60,18 @@ while [ $# -gt 0 ]; do
     --iterations) iterations=${2:?--iterations needs a number}; shift 2 ;;
     --min-registered) min_registered=${2:?--min-registered needs a number}; shift 2 ;;
     --bound) bound=${2:?--bound needs a number}; shift 2 ;;
+    --intrinsics) intrinsics=${2:?--intrinsics needs estimate or known}; shift 2 ;;
     -h|--help) usage ;;
     -*) echo "unknown option $1" >&2; usage ;;
     *) [ -z "$work" ] || { echo "one WORKDIR only (got '$work' and '$1')" >&2; usage; }; work=$1; shift ;;
   esac
 done
 [ -n "$work" ] || usage
+case "$intrinsics" in
+  estimate) tag="" ;;
+  known) tag="-known" ;;
+  *) echo "--intrinsics is 'estimate' or 'known', not '$intrinsics'" >&2; usage ;;
+esac
 mkdir -p "$work/logs"
 work=$(cd "$work" && pwd)
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -111,7 +124,7 @@ n_views=$(find "$true_scene/image" -maxdepth 1 -name '*.png' | wc -l)
 min_registered=${min_registered:-$(( (n_views + 1) / 2 ))}
 
 # --- 2. COLMAP on the images alone ------------------------------------------------------------
-cm="$work/colmap"
+cm="$work/colmap$tag"
 if [ ! -f "$cm/best/images.bin" ]; then
   rm -rf "$cm"; mkdir -p "$cm/sparse"
   mask_args=()
@@ -126,14 +139,31 @@ if [ ! -f "$cm/best/images.bin" ]; then
     done
     mask_args=(--ImageReader.mask_path "$cm/masks")
   fi
-  step colmap-features colmap feature_extractor --database_path "$cm/database.db" \
+  intr_args=() map_args=()
+  if [ "$intrinsics" = known ]; then
+    # The true K (one for every view; inspect's JSON has each camera's), held fixed by the mapper.
+    k=$("$bin" inspect "$true_scene" --json - | python3 -c '
+import json, sys
+cams = json.load(sys.stdin)["cameras"]
+k = cams[0]["k"]
+same = all(abs(c["k"][i][j] - k[i][j]) <= 1e-9 * k[0][0] for c in cams for i in range(3) for j in range(3))
+if not same or abs(k[0][1]) > 1e-9 * k[0][0]:
+    sys.exit("the views do not share one skew-free K: no single PINHOLE camera")
+print(",".join(repr(v) for v in (k[0][0], k[1][1], k[0][2], k[1][2])))') \
+      || die "cannot read one shared K from $true_scene"
+    intr_args=(--ImageReader.camera_params "$k")
+    map_args=(--Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0
+      --Mapper.ba_refine_extra_params 0)
+    echo "   known intrinsics fx,fy,cx,cy = $k" >&2
+  fi
+  step "colmap$tag-features" colmap feature_extractor --database_path "$cm/database.db" \
     --image_path "$true_scene/image" "${mask_args[@]}" \
-    --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 \
+    --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 "${intr_args[@]}" \
     --SiftExtraction.use_gpu 0
-  step colmap-matching colmap exhaustive_matcher --database_path "$cm/database.db" \
+  step "colmap$tag-matching" colmap exhaustive_matcher --database_path "$cm/database.db" \
     --SiftMatching.use_gpu 0
-  step colmap-mapper colmap mapper --database_path "$cm/database.db" \
-    --image_path "$true_scene/image" --output_path "$cm/sparse"
+  step "colmap$tag-mapper" colmap mapper --database_path "$cm/database.db" \
+    --image_path "$true_scene/image" --output_path "$cm/sparse" "${map_args[@]}"
   # The model with the most registered images (images.bin starts with that count, u64 LE).
   best="" best_n=0
   for m in "$cm"/sparse/*/; do
@@ -142,14 +172,14 @@ if [ ! -f "$cm/best/images.bin" ]; then
     echo "   model $(basename "$m"): $n registered images" >&2
     if [ "$n" -gt "$best_n" ]; then best=$m best_n=$n; fi
   done
-  [ -n "$best" ] || die "COLMAP's mapper registered no model (see $work/logs/colmap-mapper.log): too few matches between the $n_views images"
+  [ -n "$best" ] || die "COLMAP's mapper registered no model (see $work/logs/colmap$tag-mapper.log): too few matches between the $n_views images"
   cp -r "$best" "$cm/best.tmp" && mv "$cm/best.tmp" "$cm/best"
 fi
 registered=$(od -An -t u8 -N 8 "$cm/best/images.bin" | tr -d ' ')
-[ "$registered" -ge "$min_registered" ] || die "COLMAP registered only $registered of $n_views images (at least $min_registered wanted; --min-registered changes it); see $work/logs/colmap-mapper.log"
+[ "$registered" -ge "$min_registered" ] || die "COLMAP registered only $registered of $n_views images (at least $min_registered wanted; --min-registered changes it); see $work/logs/colmap$tag-mapper.log"
 if [ ! -f "$cm/best_txt/images.txt" ]; then
   rm -rf "$cm/best_txt"; mkdir -p "$cm/best_txt"
-  step colmap-to-text colmap model_converter --input_path "$cm/best" \
+  step "colmap$tag-to-text" colmap model_converter --input_path "$cm/best" \
     --output_path "$cm/best_txt" --output_type TXT
 fi
 
@@ -158,29 +188,30 @@ mask_flag=()
 [ -d "$true_scene/mask" ] && mask_flag=(--masks "$true_scene/mask")
 for form in bin txt; do
   model="$cm/best"; [ "$form" = txt ] && model="$cm/best_txt"
-  out="$work/scene_$form"
+  out="$work/scene_$form$tag"
   if [ ! -f "$out/import.json" ]; then
     rm -rf "$out"
-    step "import-$form" "$bin" import colmap "$model" --images "$true_scene/image" \
+    step "import-$form$tag" "$bin" import colmap "$model" --images "$true_scene/image" \
       "${mask_flag[@]}" --out "$out"
   fi
 done
+sb="$work/scene_bin$tag"
 for f in cameras_sphere.npz image mask; do
-  [ -e "$work/scene_bin/$f" ] || continue
-  diff -r -q "$work/scene_bin/$f" "$work/scene_txt/$f" > /dev/null \
-    || die "importing the binary and the text form of the same model gave different $f ($work/scene_bin, $work/scene_txt)"
+  [ -e "$sb/$f" ] || continue
+  diff -r -q "$sb/$f" "$work/scene_txt$tag/$f" > /dev/null \
+    || die "importing the binary and the text form of the same model gave different $f ($sb, $work/scene_txt$tag)"
 done
 echo "   binary and text models import to identical scenes" >&2
-"$bin" inspect "$work/scene_bin" > "$work/logs/inspect-colmap.log" 2>&1 \
-  || die "inspect of the imported scene failed: $work/logs/inspect-colmap.log"
+"$bin" inspect "$sb" > "$work/logs/inspect-colmap$tag.log" 2>&1 \
+  || die "inspect of the imported scene failed: $work/logs/inspect-colmap$tag.log"
 "$bin" inspect "$true_scene" > "$work/logs/inspect-true.log" 2>&1 \
   || die "inspect of the true scene failed: $work/logs/inspect-true.log"
 
 # --- 4. reconstruct both -----------------------------------------------------------------------
 rec_args=(--preset "$preset" --seed "$seed" --quiet)
 [ -n "$iterations" ] && rec_args+=(--iterations "$iterations")
-for run in true colmap; do
-  src="$true_scene"; [ "$run" = colmap ] && src="$work/scene_bin"
+for run in true "colmap$tag"; do
+  src="$true_scene"; [ "$run" = true ] || src="$sb"
   out="$work/runs/$run"
   if [ ! -f "$out/metrics.json" ]; then
     mkdir -p "$work/runs"
@@ -191,28 +222,33 @@ for run in true colmap; do
 done
 
 # --- 5. align the COLMAP run's mesh into the true frame ----------------------------------------
-step align python3 "$here/scripts/colmap_align.py" --colmap-scene "$work/scene_bin" \
-  --true-scene "$true_scene" --mesh "$work/runs/colmap/mesh.ply" \
-  --out "$work/runs/colmap/mesh_true_frame.ply" --json "$work/align.json"
+step "align$tag" python3 "$here/scripts/colmap_align.py" --colmap-scene "$sb" \
+  --true-scene "$true_scene" --mesh "$work/runs/colmap$tag/mesh.ply" \
+  --out "$work/runs/colmap$tag/mesh_true_frame.ply" --json "$work/align$tag.json"
 
 # --- 6. score both with the same protocol ------------------------------------------------------
 step eval-true "$bin" eval --mesh "$work/runs/true/mesh.ply" --scan "$scan" \
   --gt-root "$true_scene" --seed "$seed" --json "$work/eval_true.json"
-step eval-colmap "$bin" eval --mesh "$work/runs/colmap/mesh_true_frame.ply" --scan "$scan" \
-  --gt-root "$true_scene" --seed "$seed" --json "$work/eval_colmap.json"
+step "eval-colmap$tag" "$bin" eval --mesh "$work/runs/colmap$tag/mesh_true_frame.ply" \
+  --scan "$scan" --gt-root "$true_scene" --seed "$seed" --json "$work/eval_colmap$tag.json"
 
 c_true=$(json "$work/eval_true.json" 'd["chamfer_sum"]')
-c_colmap=$(json "$work/eval_colmap.json" 'd["chamfer_sum"]')
+c_colmap=$(json "$work/eval_colmap$tag.json" 'd["chamfer_sum"]')
+fx() { "$bin" inspect "$1" --json - | python3 -c 'import json,sys; d=json.load(sys.stdin); print(d["fx"][0])'; }
 python3 - "$work" "$scene" "$preset" "$seed" "${iterations:-preset}" "$registered" "$n_views" \
-  "$c_true" "$c_colmap" "$bound" "$((SECONDS - start_all))" <<'PY'
+  "$c_true" "$c_colmap" "$bound" "$((SECONDS - start_all))" "$tag" "$intrinsics" \
+  "$(fx "$sb")" "$(fx "$true_scene")" <<'PY'
 import json, sys
-work, scene, preset, seed, iters, reg, n, ct, cc, bound, wall = sys.argv[1:]
-a = json.load(open(f"{work}/align.json"))
-et, ec = (json.load(open(f"{work}/eval_{k}.json")) for k in ("true", "colmap"))
+work, scene, preset, seed, iters, reg, n, ct, cc, bound, wall, tag, intr, fxc, fxt = sys.argv[1:]
+a = json.load(open(f"{work}/align{tag}.json"))
+et, ec = (json.load(open(f"{work}/eval_{k}.json")) for k in ("true", f"colmap{tag}"))
 ct, cc, bound = float(ct), float(cc), float(bound)
 ratio = cc / ct
-print(f"COLMAP round trip: scene {scene}, preset {preset}, seed {seed}, iterations {iters}")
+print(f"COLMAP round trip: scene {scene}, preset {preset}, seed {seed}, iterations {iters}, "
+      f"intrinsics {intr}")
 print(f"registered images      {reg} of {n}")
+print(f"focal length fx        COLMAP {float(fxc):.2f} px, true {float(fxt):.2f} px "
+      f"({100 * (float(fxc) / float(fxt) - 1):+.1f} %)")
 print(f"alignment residual     rms {a['residual_rms']:.3f} mm, max {a['residual_max']:.3f} mm "
       f"(camera centres, Umeyama scale {a['scale']:.4g})")
 print(f"Chamfer, true cameras  {ct:.3f} mm (accuracy {et['mean_d2s']:.3f}, completeness {et['mean_s2d']:.3f})")
