@@ -23,7 +23,11 @@ one by an unknown similarity (gauge freedom of structure from motion). This scri
    (mm for the simulator's scenes);
 4. rewrites the mesh with every vertex mapped by `X ↦ s·R·X + t` (binary little-endian PLY, the
    vertex element first, as `dtu_eval::ply::write` writes it; other elements copied byte for
-   byte).
+   byte);
+5. when the true scene has the simulator's `gt_mesh.ply`, reports the fraction of its vertices
+   outside the imported scene's region of interest (the unit sphere of its `scale_mat_0`, mapped
+   into the true frame): NeuS reconstructs nothing there, so a non-zero fraction means the
+   importer's region cut the object.
 
 usage: colmap_align.py --colmap-scene DIR --true-scene DIR --mesh IN.ply --out OUT.ply [--json F]
        colmap_align.py --self-check
@@ -107,9 +111,9 @@ def matched_centers(colmap_scene: Path, true_scene: Path) -> tuple[list[str], np
     return names, c_colmap, c_true
 
 
-def transform_ply(src: Path, dst: Path, s: float, r: np.ndarray, t: np.ndarray) -> int:
-    """Writes `src` with its vertices mapped by `X ↦ s·R·X + t` (module doc); returns the number
-    of vertices."""
+def read_vertices(src: Path) -> tuple[bytes, bytes, np.ndarray]:
+    """`(file bytes, header bytes, vertex records)` of a binary little-endian PLY whose first
+    element is `vertex` with scalar properties including x, y, z (module doc)."""
     data = src.read_bytes()
     end = data.find(b"end_header\n")
     if not data.startswith(b"ply\n") or end < 0:
@@ -136,14 +140,35 @@ def transform_ply(src: Path, dst: Path, s: float, r: np.ndarray, t: np.ndarray) 
     dtype = np.dtype(fields)
     if not {"x", "y", "z"} <= set(dtype.names):
         fail(f"{src}: vertices lack x, y, z")
-    body = len(header)
-    vertices = np.frombuffer(data, dtype=dtype, count=n, offset=body).copy()
-    xyz = np.stack([vertices[a].astype(np.float64) for a in "xyz"], axis=1)
+    vertices = np.frombuffer(data, dtype=dtype, count=n, offset=len(header)).copy()
+    return data, header, vertices
+
+
+def xyz_of(vertices: np.ndarray) -> np.ndarray:
+    return np.stack([vertices[a].astype(np.float64) for a in "xyz"], axis=1)
+
+
+def transform_ply(src: Path, dst: Path, s: float, r: np.ndarray, t: np.ndarray) -> int:
+    """Writes `src` with its vertices mapped by `X ↦ s·R·X + t` (module doc); returns the number
+    of vertices."""
+    data, header, vertices = read_vertices(src)
+    n, body = len(vertices), len(header)
+    xyz = xyz_of(vertices)
     mapped = s * xyz @ r.T + t
     for k, a in enumerate("xyz"):
         vertices[a] = mapped[:, k]
-    dst.write_bytes(header + vertices.tobytes() + data[body + n * dtype.itemsize:])
+    dst.write_bytes(header + vertices.tobytes() + data[body + n * vertices.dtype.itemsize:])
     return n
+
+
+def outside_roi(colmap_scene: Path, gt_mesh: Path, s: float, r: np.ndarray, t: np.ndarray) -> float:
+    """Fraction of `gt_mesh`'s vertices (true frame) outside the imported scene's unit sphere
+    (`scale_mat_0 = diag(ρ, ρ, ρ, 1) + c` in COLMAP's frame, hence centre `s·R·c + t` and radius
+    `s·ρ` in the true frame)."""
+    m = np.load(colmap_scene / "cameras_sphere.npz")["scale_mat_0"]
+    centre, radius = s * r @ m[:3, 3] + t, s * m[0, 0]
+    pts = xyz_of(read_vertices(gt_mesh)[2])
+    return float((np.linalg.norm(pts - centre, axis=1) > radius).mean())
 
 
 def self_check() -> None:
@@ -228,11 +253,17 @@ def main() -> None:
         "worst_view": names[int(res.argmax())],
         "mesh_vertices": n,
     }
+    gt_mesh = args.true_scene / "gt_mesh.ply"
+    if gt_mesh.is_file():
+        report["gt_outside_roi"] = outside_roi(args.colmap_scene, gt_mesh, s, r, t)
     if args.json:
         args.json.write_text(json.dumps(report, indent=2) + "\n")
     print(f"aligned {n} vertices with the similarity of {len(names)} camera centres: scale {s:.6g}, "
           f"residual rms {report['residual_rms']:.4f} mean {report['residual_mean']:.4f} "
           f"max {report['residual_max']:.4f} (true-frame units, mm; worst {report['worst_view']})")
+    if "gt_outside_roi" in report:
+        print(f"{100 * report['gt_outside_roi']:.1f} % of the true surface lies outside the "
+              "imported region of interest")
 
 
 if __name__ == "__main__":

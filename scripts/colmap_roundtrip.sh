@@ -9,7 +9,11 @@
 #      unknown calibration; `--intrinsics known`: the scene's true K is given to COLMAP and held
 #      fixed (a calibrated rig, as DTU's), so only the poses come from COLMAP;
 #   3. convert that binary model to text and import both with `neus-aug import colmap` (masks
-#      passed): the two scenes must be identical byte for byte;
+#      passed): the two scenes must be identical byte for byte. The region of interest (the
+#      sphere NeuS reconstructs in) comes from `--roi-from cameras` (default: the point nearest
+#      every optical axis, the largest sphere every camera sees whole; right for this orbiting
+#      rig) or `--roi-from points` (the importer's default, from the sparse points: here they
+#      cover the side the cameras see best, and the sphere cuts off the rest of the object);
 #   4. reconstruct the COLMAP-posed scene and the true-camera scene with the same preset, seed and
 #      iterations;
 #   5. map the COLMAP run's mesh (COLMAP's world frame: `reconstruct` maps it out of normalised
@@ -21,14 +25,15 @@
 #      and their ratio against the acceptance bound 1.3.
 #
 #   scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S] [--iterations N]
-#                                       [--intrinsics estimate|known] [--min-registered K] [--bound B]
+#                                       [--intrinsics estimate|known] [--roi-from cameras|points]
+#                                       [--min-registered K] [--bound B]
 #   scripts/colmap_roundtrip.sh /tmp/rt                       # blob, fast preset, seed 0
 #   scripts/colmap_roundtrip.sh /tmp/rt --iterations 800      # cheaper proof run
 #
-# WORKDIR keeps every step's output (true/, colmap/, scene_bin/, scene_txt/, runs/, logs/; with
-# `--intrinsics known` the COLMAP-side names end in -known); a step whose output is already
-# complete is not redone, so a rerun after a failure continues, and the two intrinsics modes share
-# the synthetic scene and the true-camera run. Exit
+# WORKDIR keeps every step's output (true/, colmap[-known]/, scene_{bin,txt}[-known]-ROI/,
+# runs/{true,colmap[-known]-ROI}/, logs/); a step whose output is already complete is not redone,
+# so a rerun after a failure continues, and every variant shares the synthetic scene, the
+# true-camera run, and (per intrinsics mode) the COLMAP model. Exit
 # status: 0 when the ratio is within the bound, 1 when a step failed (the message says which and
 # where its log is), 2 when every step worked but the ratio exceeds the bound.
 # Needs COLMAP (installed with apt-get when missing and run as root), python3 (numpy is installed
@@ -38,7 +43,8 @@ set -euo pipefail
 
 usage() {
   echo "usage: scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S]" \
-    "[--iterations N] [--intrinsics estimate|known] [--min-registered K] [--bound B]" \
+    "[--iterations N] [--intrinsics estimate|known] [--roi-from cameras|points]" \
+    "[--min-registered K] [--bound B]" \
     "(details: the comment at its top)" >&2
   exit 1
 }
@@ -52,6 +58,7 @@ iterations=""
 min_registered=""
 bound=1.3
 intrinsics=estimate
+roi_from=cameras
 while [ $# -gt 0 ]; do
   case "$1" in
     --scene) scene=${2:?--scene needs a name}; shift 2 ;;
@@ -61,6 +68,7 @@ while [ $# -gt 0 ]; do
     --min-registered) min_registered=${2:?--min-registered needs a number}; shift 2 ;;
     --bound) bound=${2:?--bound needs a number}; shift 2 ;;
     --intrinsics) intrinsics=${2:?--intrinsics needs estimate or known}; shift 2 ;;
+    --roi-from) roi_from=${2:?--roi-from needs cameras or points}; shift 2 ;;
     -h|--help) usage ;;
     -*) echo "unknown option $1" >&2; usage ;;
     *) [ -z "$work" ] || { echo "one WORKDIR only (got '$work' and '$1')" >&2; usage; }; work=$1; shift ;;
@@ -71,6 +79,10 @@ case "$intrinsics" in
   estimate) tag="" ;;
   known) tag="-known" ;;
   *) echo "--intrinsics is 'estimate' or 'known', not '$intrinsics'" >&2; usage ;;
+esac
+case "$roi_from" in
+  cameras|points) stag="$tag-$roi_from" ;;   # names of what depends on the region of interest
+  *) echo "--roi-from is 'cameras' or 'points', not '$roi_from'" >&2; usage ;;
 esac
 mkdir -p "$work/logs"
 work=$(cd "$work" && pwd)
@@ -188,29 +200,29 @@ mask_flag=()
 [ -d "$true_scene/mask" ] && mask_flag=(--masks "$true_scene/mask")
 for form in bin txt; do
   model="$cm/best"; [ "$form" = txt ] && model="$cm/best_txt"
-  out="$work/scene_$form$tag"
+  out="$work/scene_$form$stag"
   if [ ! -f "$out/import.json" ]; then
     rm -rf "$out"
-    step "import-$form$tag" "$bin" import colmap "$model" --images "$true_scene/image" \
-      "${mask_flag[@]}" --out "$out"
+    step "import-$form$stag" "$bin" import colmap "$model" --images "$true_scene/image" \
+      "${mask_flag[@]}" --roi-from "$roi_from" --out "$out"
   fi
 done
-sb="$work/scene_bin$tag"
+sb="$work/scene_bin$stag"
 for f in cameras_sphere.npz image mask; do
   [ -e "$sb/$f" ] || continue
-  diff -r -q "$sb/$f" "$work/scene_txt$tag/$f" > /dev/null \
-    || die "importing the binary and the text form of the same model gave different $f ($sb, $work/scene_txt$tag)"
+  diff -r -q "$sb/$f" "$work/scene_txt$stag/$f" > /dev/null \
+    || die "importing the binary and the text form of the same model gave different $f ($sb, $work/scene_txt$stag)"
 done
 echo "   binary and text models import to identical scenes" >&2
-"$bin" inspect "$sb" > "$work/logs/inspect-colmap$tag.log" 2>&1 \
-  || die "inspect of the imported scene failed: $work/logs/inspect-colmap$tag.log"
+"$bin" inspect "$sb" > "$work/logs/inspect-colmap$stag.log" 2>&1 \
+  || die "inspect of the imported scene failed: $work/logs/inspect-colmap$stag.log"
 "$bin" inspect "$true_scene" > "$work/logs/inspect-true.log" 2>&1 \
   || die "inspect of the true scene failed: $work/logs/inspect-true.log"
 
 # --- 4. reconstruct both -----------------------------------------------------------------------
 rec_args=(--preset "$preset" --seed "$seed" --quiet)
 [ -n "$iterations" ] && rec_args+=(--iterations "$iterations")
-for run in true "colmap$tag"; do
+for run in true "colmap$stag"; do
   src="$true_scene"; [ "$run" = true ] || src="$sb"
   out="$work/runs/$run"
   if [ ! -f "$out/metrics.json" ]; then
@@ -222,35 +234,38 @@ for run in true "colmap$tag"; do
 done
 
 # --- 5. align the COLMAP run's mesh into the true frame ----------------------------------------
-step "align$tag" python3 "$here/scripts/colmap_align.py" --colmap-scene "$sb" \
-  --true-scene "$true_scene" --mesh "$work/runs/colmap$tag/mesh.ply" \
-  --out "$work/runs/colmap$tag/mesh_true_frame.ply" --json "$work/align$tag.json"
+step "align$stag" python3 "$here/scripts/colmap_align.py" --colmap-scene "$sb" \
+  --true-scene "$true_scene" --mesh "$work/runs/colmap$stag/mesh.ply" \
+  --out "$work/runs/colmap$stag/mesh_true_frame.ply" --json "$work/align$stag.json"
 
 # --- 6. score both with the same protocol ------------------------------------------------------
 step eval-true "$bin" eval --mesh "$work/runs/true/mesh.ply" --scan "$scan" \
   --gt-root "$true_scene" --seed "$seed" --json "$work/eval_true.json"
-step "eval-colmap$tag" "$bin" eval --mesh "$work/runs/colmap$tag/mesh_true_frame.ply" \
-  --scan "$scan" --gt-root "$true_scene" --seed "$seed" --json "$work/eval_colmap$tag.json"
+step "eval-colmap$stag" "$bin" eval --mesh "$work/runs/colmap$stag/mesh_true_frame.ply" \
+  --scan "$scan" --gt-root "$true_scene" --seed "$seed" --json "$work/eval_colmap$stag.json"
 
 c_true=$(json "$work/eval_true.json" 'd["chamfer_sum"]')
-c_colmap=$(json "$work/eval_colmap$tag.json" 'd["chamfer_sum"]')
+c_colmap=$(json "$work/eval_colmap$stag.json" 'd["chamfer_sum"]')
 fx() { "$bin" inspect "$1" --json - | python3 -c 'import json,sys; d=json.load(sys.stdin); print(d["fx"][0])'; }
 python3 - "$work" "$scene" "$preset" "$seed" "${iterations:-preset}" "$registered" "$n_views" \
-  "$c_true" "$c_colmap" "$bound" "$((SECONDS - start_all))" "$tag" "$intrinsics" \
+  "$c_true" "$c_colmap" "$bound" "$((SECONDS - start_all))" "$stag" "$intrinsics" "$roi_from" \
   "$(fx "$sb")" "$(fx "$true_scene")" <<'PY'
 import json, sys
-work, scene, preset, seed, iters, reg, n, ct, cc, bound, wall, tag, intr, fxc, fxt = sys.argv[1:]
-a = json.load(open(f"{work}/align{tag}.json"))
-et, ec = (json.load(open(f"{work}/eval_{k}.json")) for k in ("true", f"colmap{tag}"))
+work, scene, preset, seed, iters, reg, n, ct, cc, bound, wall, stag, intr, roi, fxc, fxt = sys.argv[1:]
+a = json.load(open(f"{work}/align{stag}.json"))
+et, ec = (json.load(open(f"{work}/eval_{k}.json")) for k in ("true", f"colmap{stag}"))
 ct, cc, bound = float(ct), float(cc), float(bound)
 ratio = cc / ct
 print(f"COLMAP round trip: scene {scene}, preset {preset}, seed {seed}, iterations {iters}, "
-      f"intrinsics {intr}")
+      f"intrinsics {intr}, region of interest from {roi}")
 print(f"registered images      {reg} of {n}")
 print(f"focal length fx        COLMAP {float(fxc):.2f} px, true {float(fxt):.2f} px "
       f"({100 * (float(fxc) / float(fxt) - 1):+.1f} %)")
 print(f"alignment residual     rms {a['residual_rms']:.3f} mm, max {a['residual_max']:.3f} mm "
       f"(camera centres, Umeyama scale {a['scale']:.4g})")
+if "gt_outside_roi" in a:
+    print(f"true surface outside   {100 * a['gt_outside_roi']:.1f} % (of gt_mesh.ply, outside the "
+          "imported region of interest)")
 print(f"Chamfer, true cameras  {ct:.3f} mm (accuracy {et['mean_d2s']:.3f}, completeness {et['mean_s2d']:.3f})")
 print(f"Chamfer, COLMAP        {cc:.3f} mm (accuracy {ec['mean_d2s']:.3f}, completeness {ec['mean_s2d']:.3f})")
 print(f"ratio COLMAP / true    {ratio:.3f} (bound {bound}: {'within' if ratio <= bound else 'EXCEEDED'})")
