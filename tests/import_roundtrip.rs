@@ -378,7 +378,10 @@ fn cli_synth_export_then_import_both_formats() {
         "the camera-layout region equals the sparse points' one: {nc:?}"
     );
     let inspect = run(&["inspect", c.to_str().unwrap()]);
-    assert!(inspect.contains("from the layout of 6 cameras"), "{inspect}");
+    assert!(
+        inspect.contains("from the layout of 6 cameras"),
+        "{inspect}"
+    );
     // A bad flag value is refused with its name.
     let out = common::tiny::neus_aug()
         .args([

@@ -30,8 +30,7 @@
 use super::colmap_binary;
 pub use super::colmap_binary::write_binary;
 use super::{
-    find_mask, io_err, roi_from_cameras, roi_from_points, ImportError, ImportedView, Roi,
-    RoiChoice,
+    find_mask, io_err, roi_from_cameras, roi_from_points, ImportError, ImportedView, Roi, RoiChoice,
 };
 use crate::scene::Camera;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
