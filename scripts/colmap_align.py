@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Map a mesh reconstructed in a COLMAP-posed scene back into the true frame of the scene it was
-made from, with the similarity between the two scenes' camera centres (Umeyama, with scale).
+made from, with the similarity between the two scenes' cameras (Umeyama, with scale): fitted to
+the camera centres alone, and to the whole poses (centres and viewing directions).
 
 The COLMAP round trip (`scripts/colmap_roundtrip.sh`) runs COLMAP on a synthetic scene's images,
 imports the model with `neus-aug import colmap` and reconstructs it. Its `mesh.ply` is in the
@@ -9,10 +10,11 @@ space with `scale_mat_0` (`X_world = s·X_norm + c`, src/scene/dtu.rs), and the 
 similarity of its own to the cameras (src/import/mod.rs). COLMAP's frame differs from the true
 one by an unknown similarity (gauge freedom of structure from motion). This script
 
-1. reads every camera centre of both scenes from `cameras_sphere.npz`: `world_mat_i` is
-   `K·[R | −R·C]` in the scene's world frame (src/scene/dtu.rs `write_cameras`; NeuS's layout, where
-   `scale_mat_i` is applied on top, so it plays no part here), hence `C = −M⁻¹·p4` with `M` the left
-   3×3 block and `p4` the last column;
+1. reads every camera of both scenes from `cameras_sphere.npz`: `world_mat_i` is `K·[R | −R·C]`
+   in the scene's world frame (src/scene/dtu.rs `write_cameras`; NeuS's layout, where
+   `scale_mat_i` is applied on top, so it plays no part here), hence the centre `C = −M⁻¹·p4` with
+   `M` the left 3×3 block and `p4` the last column, and the viewing direction (camera +z, OpenCV
+   axes) `z = M₃/|M₃|`, the third row of `M = K·R` being `R`'s since `K`'s is `(0, 0, 1)`;
 2. matches views by image name: view `i` of the imported scene is `import.json`'s `names[i]`, the
    name COLMAP gave the image (relative to the folder COLMAP read, the true scene's `image/`); view
    `i` of the true scene is the `i`-th file of its sorted `image/` folder (the order of
@@ -20,16 +22,25 @@ one by an unknown similarity (gauge freedom of structure from motion). This scri
 3. finds `s, R, t` minimising `Σ |C_true − (s·R·C_colmap + t)|²` (Umeyama, "Least-squares
    estimation of transformation parameters between two point patterns", IEEE TPAMI 13(4), 1991,
    eqs. 34–43), and reports the residual `|C_true − (s·R·C_colmap + t)|` in the true frame's unit
-   (mm for the simulator's scenes);
-4. rewrites the mesh with every vertex mapped by `X ↦ s·R·X + t` (binary little-endian PLY, the
-   vertex element first, as `dtu_eval::ply::write` writes it; other elements copied byte for
-   byte);
-5. when the true scene has the simulator's `gt_mesh.ply`, reports the fraction of its vertices
+   (mm for the simulator's scenes). This is the fit issue 16 names ("centres");
+4. fits a second similarity ("poses") to the centres plus one point per camera on its optical
+   axis at the working distance, `A = C + D·z`: `D` is the mean distance of the COLMAP cameras
+   to the point nearest all their optical axes (the object, for a capture that orbits it), and
+   `s₀·D` on the true side with `s₀` the centres fit's scale. Why: on a rig whose cameras lie on a
+   shallow cap (DTU's, the simulator's), the centres pin the rotation about the cap's in-plane
+   axes only weakly, and the object sits a lever arm of ~D from the cameras' centroid, so a
+   rotation error the centres barely notice moves the object by millimetres; the viewing
+   directions pin exactly that rotation;
+5. rewrites the mesh with every vertex mapped by `X ↦ s·R·X + t` of each fit (binary
+   little-endian PLY, the vertex element first, as `dtu_eval::ply::write` writes it; other elements
+   copied byte for byte): `--out` (centres), `--out-poses` (poses, optional);
+6. when the true scene has the simulator's `gt_mesh.ply`, reports the fraction of its vertices
    outside the imported scene's region of interest (the unit sphere of its `scale_mat_0`, mapped
    into the true frame): NeuS reconstructs nothing there, so a non-zero fraction means the
    importer's region cut the object.
 
-usage: colmap_align.py --colmap-scene DIR --true-scene DIR --mesh IN.ply --out OUT.ply [--json F]
+usage: colmap_align.py --colmap-scene DIR --true-scene DIR --mesh IN.ply --out OUT.ply
+                        [--out-poses OUT2.ply] [--json F]
        colmap_align.py --self-check
 """
 
@@ -73,42 +84,70 @@ def umeyama(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.nda
     return s, r, t
 
 
-def camera_centers(scene: Path) -> np.ndarray:
-    """`[n, 3]` camera centres in the scene's world frame, from `world_mat_i` (module doc)."""
+def camera_poses(scene: Path) -> tuple[np.ndarray, np.ndarray]:
+    """`([n, 3] camera centres, [n, 3] unit viewing directions)` in the scene's world frame, from
+    `world_mat_i` (module doc)."""
     path = scene / "cameras_sphere.npz"
     if not path.is_file():
         fail(f"{path} is missing (not a NeuS scene folder)")
     cams = np.load(path)
     n = sum(1 for k in cams.files if k.startswith("world_mat_") and not k.startswith("world_mat_inv"))
-    centers = []
+    centers, axes = [], []
     for i in range(n):
         p = cams[f"world_mat_{i}"][:3, :4]
         centers.append(-np.linalg.solve(p[:, :3], p[:, 3]))
-    return np.array(centers)
+        # A projection matrix scaled by a negative factor flips M₃; det(M) > 0 for K·R.
+        axes.append(np.sign(np.linalg.det(p[:, :3])) * p[2, :3] / np.linalg.norm(p[2, :3]))
+    return np.array(centers), np.array(axes)
 
 
 def image_names(scene: Path) -> list[str]:
     return sorted(p.name for p in (scene / "image").iterdir() if p.suffix == ".png")
 
 
-def matched_centers(colmap_scene: Path, true_scene: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
+def matched_poses(colmap_scene: Path, true_scene: Path):
+    """`(names, (C, z) of the COLMAP scene, (C, z) of the true scene)`, row `k` of each the view
+    named `names[k]` (module doc)."""
     record = colmap_scene / "import.json"
     if not record.is_file():
         fail(f"{record} is missing: --colmap-scene must be written by `neus-aug import colmap`")
     names = json.loads(record.read_text())["names"]
-    c_colmap = camera_centers(colmap_scene)
+    c_colmap, z_colmap = camera_poses(colmap_scene)
     if len(names) != len(c_colmap):
         fail(f"{record} names {len(names)} views but the scene has {len(c_colmap)} cameras")
     true_names = image_names(true_scene)
-    c_true_all = camera_centers(true_scene)
+    c_true_all, z_true_all = camera_poses(true_scene)
     if len(true_names) != len(c_true_all):
         fail(f"{true_scene}: {len(true_names)} images but {len(c_true_all)} cameras")
     index = {name: i for i, name in enumerate(true_names)}
     missing = [n for n in names if Path(n).name not in index]
     if missing:
         fail(f"imported views not in {true_scene / 'image'}: {missing[:5]}")
-    c_true = np.array([c_true_all[index[Path(n).name]] for n in names])
-    return names, c_colmap, c_true
+    rows = [index[Path(n).name] for n in names]
+    return names, (c_colmap, z_colmap), (c_true_all[rows], z_true_all[rows])
+
+
+def nearest_to_axes(c: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The point nearest, in least squares, to every line `c_i + λ·z_i`: solves
+    `Σ (I − z zᵀ)(p − c_i) = 0` (as `neus_aug::import::roi_from_cameras`)."""
+    m = np.eye(3)[None] - z[:, :, None] * z[:, None, :]
+    a, b = m.sum(axis=0), np.einsum("nij,nj->i", m, c)
+    eig = np.linalg.eigvalsh(a)
+    if eig[0] <= 1e-6 * eig[-1]:
+        raise ValueError("the optical axes do not meet (parallel axes): no working distance")
+    return np.linalg.solve(a, b)
+
+
+def pose_fit(cc, zc, ct, zt) -> tuple[float, np.ndarray, np.ndarray, float]:
+    """The "poses" similarity of the module doc (step 4): Umeyama on the centres plus one point
+    per camera at the working distance along its axis. Returns `(s, R, t, D)` with `D` in the
+    COLMAP frame's units."""
+    s0, _, _ = umeyama(cc, ct)
+    d = float(np.linalg.norm(cc - nearest_to_axes(cc, zc), axis=1).mean())
+    src = np.vstack([cc, cc + d * zc])
+    dst = np.vstack([ct, ct + s0 * d * zt])
+    s, r, t = umeyama(src, dst)
+    return s, r, t, d
 
 
 def read_vertices(src: Path) -> tuple[bytes, bytes, np.ndarray]:
@@ -190,6 +229,31 @@ def self_check() -> None:
     # A reflected target set is fitted by a rotation, never a reflection.
     _, r3, _ = umeyama(src, dst * np.array([1.0, 1.0, -1.0]))
     assert abs(np.linalg.det(r3) - 1.0) < 1e-12
+    # The pose fit recovers the same similarity when the axes turn with it, and its working
+    # distance is the distance to the point the axes meet at.
+    target = np.array([0.3, -0.2, 0.5])
+    z_src = target - src
+    d_true = np.linalg.norm(z_src, axis=1)
+    z_src /= d_true[:, None]
+    s4, r4, t4, d4 = pose_fit(src, z_src, dst, z_src @ r_true.T)
+    assert abs(s4 - s_true) / s_true < 1e-12 and np.abs(r4 - r_true).max() < 1e-12, (s4, r4)
+    assert np.abs(t4 - t_true).max() < 1e-9 and abs(d4 - d_true.mean()) < 1e-12, (t4, d4)
+    # Centres on a shallow cap with noise: the poses pin the rotation better than the centres.
+    ang = rng.uniform(0, 2 * np.pi, 49)
+    cap = np.stack([np.cos(ang), np.sin(ang), np.zeros(49)], axis=1) * rng.uniform(0, 0.4, (49, 1))
+    cap[:, 2] = 1.0 - 0.5 * (cap[:, :2] ** 2).sum(axis=1)  # ~ a sphere of radius 1 about 0
+    z_cap = -cap / np.linalg.norm(cap, axis=1)[:, None]
+    cap_dst = s_true * cap @ r_true.T + t_true
+    errs = {"centres": [], "poses": []}
+    for _ in range(20):
+        noisy_c = cap_dst + rng.normal(scale=0.01 * s_true, size=cap_dst.shape)
+        noisy_z = z_cap @ r_true.T + rng.normal(scale=0.003, size=z_cap.shape)
+        noisy_z /= np.linalg.norm(noisy_z, axis=1)[:, None]
+        for name, fit in (("centres", umeyama(cap, noisy_c)), ("poses", pose_fit(cap, z_cap, noisy_c, noisy_z))):
+            s5, r5, t5 = fit[:3]
+            errs[name].append(np.linalg.norm(s5 * r5 @ np.zeros(3) + t5 - t_true))  # the object, at 0
+    obj_c, obj_p = np.median(errs["centres"]), np.median(errs["poses"])
+    assert obj_p < 0.5 * obj_c, f"object error: poses {obj_p:.3f}, centres {obj_c:.3f}"
     # Collinear points are refused.
     try:
         umeyama(np.outer(np.arange(5.0), [1.0, 2.0, 3.0]), dst[:5])
@@ -215,7 +279,8 @@ def self_check() -> None:
         assert np.abs(got_xyz - want).max() < 1e-4 * 510.0, (got_xyz, want)
         assert list(got["red"]) == [1, 2, 3] and out.endswith(face) and len(out) == len(a.read_bytes())
     print("colmap_align self-check: ok (exact similarity to "
-          f"{err:.1e}, noisy fit residual {res.mean():.3f} for noise 0.1, reflection refused, PLY rewrite)")
+          f"{err:.1e}, noisy fit residual {res.mean():.3f} for noise 0.1, reflection refused, exact "
+          f"pose fit, object error on a noisy cap: poses {obj_p:.2f} vs centres {obj_c:.2f}, PLY rewrite)")
 
 
 def main() -> None:
@@ -223,7 +288,8 @@ def main() -> None:
     ap.add_argument("--colmap-scene", type=Path, help="scene written by `neus-aug import colmap`")
     ap.add_argument("--true-scene", type=Path, help="the synthetic scene COLMAP was run on")
     ap.add_argument("--mesh", type=Path, help="mesh.ply of the COLMAP-posed run (its world frame)")
-    ap.add_argument("--out", type=Path, help="the mesh mapped into the true frame")
+    ap.add_argument("--out", type=Path, help="the mesh mapped into the true frame (centres fit)")
+    ap.add_argument("--out-poses", type=Path, help="the mesh mapped by the poses fit")
     ap.add_argument("--json", type=Path, help="write the similarity and residuals here")
     ap.add_argument("--self-check", action="store_true", help="test the fit and the PLY rewrite")
     args = ap.parse_args()
@@ -233,15 +299,20 @@ def main() -> None:
     for flag in ("colmap_scene", "true_scene", "mesh", "out"):
         if getattr(args, flag) is None:
             ap.error(f"--{flag.replace('_', '-')} is required")
-    names, c_colmap, c_true = matched_centers(args.colmap_scene, args.true_scene)
+    names, (c_colmap, z_colmap), (c_true, z_true) = matched_poses(args.colmap_scene, args.true_scene)
     if len(names) < 3:
         fail(f"only {len(names)} matched cameras: a similarity needs at least 3")
     try:
         s, r, t = umeyama(c_colmap, c_true)
+        sp, rp, tp, dist = pose_fit(c_colmap, z_colmap, c_true, z_true)
     except ValueError as e:
         fail(str(e))
     res = np.linalg.norm(c_true - (s * c_colmap @ r.T + t), axis=1)
+    res_p = np.linalg.norm(c_true - (sp * c_colmap @ rp.T + tp), axis=1)
+    ang = np.degrees(np.arccos(np.clip((z_true * (z_colmap @ rp.T)).sum(axis=1), -1.0, 1.0)))
     n = transform_ply(args.mesh, args.out, s, r, t)
+    if args.out_poses:
+        transform_ply(args.mesh, args.out_poses, sp, rp, tp)
     report = {
         "matched_cameras": len(names),
         "scale": s,
@@ -252,6 +323,16 @@ def main() -> None:
         "residual_max": float(res.max()),
         "worst_view": names[int(res.argmax())],
         "mesh_vertices": n,
+        "poses": {
+            "scale": sp,
+            "rotation": rp.tolist(),
+            "translation": tp.tolist(),
+            "working_distance": dist * s,
+            "rotation_from_centres_fit_deg": float(
+                np.degrees(np.arccos(np.clip((np.trace(r.T @ rp) - 1) / 2, -1.0, 1.0)))),
+            "residual_rms": float(np.sqrt((res_p**2).mean())),
+            "axis_angle_rms_deg": float(np.sqrt((ang**2).mean())),
+        },
     }
     gt_mesh = args.true_scene / "gt_mesh.ply"
     if gt_mesh.is_file():
@@ -261,6 +342,10 @@ def main() -> None:
     print(f"aligned {n} vertices with the similarity of {len(names)} camera centres: scale {s:.6g}, "
           f"residual rms {report['residual_rms']:.4f} mean {report['residual_mean']:.4f} "
           f"max {report['residual_max']:.4f} (true-frame units, mm; worst {report['worst_view']})")
+    p = report["poses"]
+    print(f"poses fit (centres + axes at {p['working_distance']:.1f} mm): centre residual rms "
+          f"{p['residual_rms']:.4f}, axis angle rms {p['axis_angle_rms_deg']:.4f} deg, "
+          f"{p['rotation_from_centres_fit_deg']:.4f} deg from the centres fit")
     if "gt_outside_roi" in report:
         print(f"{100 * report['gt_outside_roi']:.1f} % of the true surface lies outside the "
               "imported region of interest")
