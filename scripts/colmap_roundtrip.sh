@@ -10,10 +10,10 @@
 #      fixed (a calibrated rig, as DTU's), so only the poses come from COLMAP;
 #   3. convert that binary model to text and import both with `neus-aug import colmap` (masks
 #      passed): the two scenes must be identical byte for byte. The region of interest (the
-#      sphere NeuS reconstructs in) comes from `--roi-from cameras` (default: the point nearest
-#      every optical axis, the largest sphere every camera sees whole; right for this orbiting
-#      rig) or `--roi-from points` (the importer's default, from the sparse points: here they
-#      cover the side the cameras see best, and the sphere cuts off the rest of the object);
+#      sphere NeuS reconstructs in) comes from `--roi-from points` (default, the importer's: from
+#      the sparse points, which here cover the side the cameras see best, so the sphere leaves
+#      out part of the unobserved underside; the summary says how much) or `--roi-from cameras`
+#      (the point nearest every optical axis, the largest sphere every camera sees whole);
 #   4. reconstruct the COLMAP-posed scene and the true-camera scene with the same preset, seed and
 #      iterations;
 #   5. map the COLMAP run's mesh (COLMAP's world frame: `reconstruct` maps it out of normalised
@@ -28,7 +28,7 @@
 #      (judged on the centres alignment, issue 16's definition; the poses one printed beside).
 #
 #   scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S] [--iterations N]
-#                                       [--intrinsics estimate|known] [--roi-from cameras|points]
+#                                       [--intrinsics estimate|known] [--roi-from points|cameras]
 #                                       [--min-registered K] [--bound B]
 #   scripts/colmap_roundtrip.sh /tmp/rt                       # blob, fast preset, seed 0
 #   scripts/colmap_roundtrip.sh /tmp/rt --iterations 800      # cheaper proof run
@@ -47,7 +47,7 @@ set -euo pipefail
 
 usage() {
   echo "usage: scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S]" \
-    "[--iterations N] [--intrinsics estimate|known] [--roi-from cameras|points]" \
+    "[--iterations N] [--intrinsics estimate|known] [--roi-from points|cameras]" \
     "[--min-registered K] [--bound B]" \
     "(details: the comment at its top)" >&2
   exit 1
@@ -62,7 +62,7 @@ iterations=""
 min_registered=""
 bound=1.3
 intrinsics=estimate
-roi_from=cameras
+roi_from=points
 while [ $# -gt 0 ]; do
   case "$1" in
     --scene) scene=${2:?--scene needs a name}; shift 2 ;;
