@@ -11,9 +11,9 @@
 #   3. convert that binary model to text and import both with `neus-aug import colmap` (masks
 #      passed): the two scenes must be identical byte for byte. The region of interest (the
 #      sphere NeuS reconstructs in) comes from `--roi-from points` (default, the importer's: from
-#      the sparse points, which here cover the side the cameras see best, so the sphere leaves
-#      out part of the unobserved underside; the summary says how much) or `--roi-from cameras`
-#      (the point nearest every optical axis, the largest sphere every camera sees whole);
+#      the sparse points, which here cover the side the cameras see, so the sphere leaves out part
+#      of the side facing away from them; the summary says how much) or `--roi-from cameras` (the
+#      point nearest every optical axis, the largest sphere every camera sees whole);
 #   4. reconstruct the COLMAP-posed scene and the true-camera scene with the same preset, seed and
 #      iterations;
 #   5. map the COLMAP run's mesh (COLMAP's world frame: `reconstruct` maps it out of normalised
@@ -36,13 +36,15 @@
 # WORKDIR keeps every step's output (true/, colmap[-known]/, scene_{bin,txt}[-known]-ROI/,
 # runs/{true,colmap[-known]-ROI}/, logs/); a step whose output is already complete is not redone,
 # so a rerun after a failure continues, and every variant shares the synthetic scene, the
-# true-camera run, and (per intrinsics mode) the COLMAP model. Exit
+# true-camera run, and (per intrinsics mode) the COLMAP model; a WORKDIR made with another scene,
+# preset, seed or iteration count is refused. Exit
 # status: 0 when the ratio (centres alignment) is within the bound, 1 when a step failed (the
 # message says which and where its log is), 2 when every step worked but the ratio exceeds the
 # bound.
 # Needs COLMAP (installed with apt-get when missing and run as root), python3 (numpy is installed
 # into target/py-venv by scripts/_pyenv.py), and the release binary (built when missing).
-# Cost on 2 cores: COLMAP a few minutes for 49 views; each reconstruction as `reconstruct`.
+# Cost on 2 cores: COLMAP about 1.5 min for the 49 views of `blob`; each reconstruction what
+# `reconstruct` costs (5-13 min at 1000 iterations of the fast preset with other jobs running).
 set -euo pipefail
 
 usage() {
@@ -90,6 +92,14 @@ case "$roi_from" in
 esac
 mkdir -p "$work/logs"
 work=$(cd "$work" && pwd)
+# Cached outputs are only valid for the parameters they were made with.
+params="scene=$scene preset=$preset seed=$seed iterations=${iterations:-preset}"
+if [ -f "$work/params" ]; then
+  [ "$(cat "$work/params")" = "$params" ] \
+    || die "$work was made with '$(cat "$work/params")', not '$params': use another WORKDIR"
+else
+  echo "$params" > "$work/params"
+fi
 here=$(cd "$(dirname "$0")/.." && pwd)
 bin=${NEUS_AUG:-$here/target/release/neus-aug}
 export QT_QPA_PLATFORM=offscreen   # COLMAP's Qt otherwise asks for a display
