@@ -50,6 +50,7 @@ fn colmap_import(model_dir: &Path, images: &Path, masks: Option<&Path>, out: &Pa
         images: images.into(),
         masks: masks.map(PathBuf::from),
         roi: None,
+        roi_from: colmap::RoiSource::Points,
     };
     let (views, roi, _) = colmap::import(&opts).unwrap();
     import::write_imported_scene(out, &views, &roi, "colmap", model_dir).unwrap();
@@ -177,6 +178,7 @@ fn import_err(model_dir: &Path, images: &Path, roi: Option<Roi>, out: &Path) -> 
         images: images.into(),
         masks: None,
         roi,
+        roi_from: colmap::RoiSource::Points,
     };
     let result: Result<_, ImportError> = colmap::import(&opts).and_then(|(views, roi, _)| {
         import::write_imported_scene(out, &views, &roi, "colmap", model_dir)
@@ -341,6 +343,43 @@ fn cli_synth_export_then_import_both_formats() {
     let inspect = run(&["inspect", a.to_str().unwrap()]);
     assert!(
         inspect.contains("imported     from colmap-text") && inspect.contains("sparse points"),
+        "{inspect}"
+    );
+    // `--roi-from cameras`: the camera-layout region, the one the transforms importer chooses
+    // from the same cameras by default (and not the sparse points' one).
+    let c = tmp.path().join("c");
+    run(&[
+        "import",
+        "colmap",
+        synth.join("colmap/sparse/0").to_str().unwrap(),
+        "--images",
+        synth.join("image").to_str().unwrap(),
+        "--roi-from",
+        "cameras",
+        "--out",
+        c.to_str().unwrap(),
+    ]);
+    let d = tmp.path().join("d");
+    run(&[
+        "import",
+        "transforms",
+        synth.join("transforms.json").to_str().unwrap(),
+        "--out",
+        d.to_str().unwrap(),
+    ]);
+    let (nc, nd) = (load(&c).normalization, load(&d).normalization);
+    let centre_gap = (Vector3::from(nc.center) - Vector3::from(nd.center)).norm();
+    assert!(
+        (nc.scale - nd.scale).abs() <= 1e-9 * nd.scale && centre_gap <= 1e-9 * nd.scale,
+        "colmap --roi-from cameras {nc:?} against transforms {nd:?}"
+    );
+    assert!(
+        (nc.scale - sa.normalization.scale).abs() > 1e-3 * nc.scale,
+        "the camera-layout region equals the sparse points' one: {nc:?}"
+    );
+    let inspect = run(&["inspect", c.to_str().unwrap()]);
+    assert!(
+        inspect.contains("from the layout of 6 cameras"),
         "{inspect}"
     );
     // A bad flag value is refused with its name.

@@ -59,6 +59,12 @@ pub enum ImportSource {
         out: PathBuf,
         #[command(flatten)]
         roi: RoiArgs,
+        /// What the automatic region of interest comes from: `points` (the sparse points seen by
+        /// >= 3 images) or `cameras` (the point nearest every optical axis, and the largest
+        /// sphere about it every camera sees whole: for captures orbiting an object, whose
+        /// sparse points may cover only the side the cameras see best).
+        #[arg(long, value_enum, default_value_t = colmap::RoiSource::Points)]
+        roi_from: colmap::RoiSource,
     },
     /// An instant-ngp / nerfstudio transforms.json (OpenGL camera-to-world poses; fl_x/fl_y/cx/cy
     /// or camera_angle_x, shared or per frame). Images may be PNG or JPEG.
@@ -96,12 +102,14 @@ pub fn run(args: ImportArgs) -> anyhow::Result<()> {
             masks,
             out,
             roi,
+            roi_from,
         } => {
             let opts = colmap::ColmapImport {
                 model_dir: sparse.clone(),
                 images,
                 masks,
                 roi: roi.roi()?,
+                roi_from,
             };
             let (views, choice, format) = colmap::import(&opts)
                 .with_context(|| format!("cannot import COLMAP model {}", sparse.display()))?;

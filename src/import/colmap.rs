@@ -29,7 +29,9 @@
 
 use super::colmap_binary;
 pub use super::colmap_binary::write_binary;
-use super::{find_mask, io_err, roi_from_points, ImportError, ImportedView, Roi, RoiChoice};
+use super::{
+    find_mask, io_err, roi_from_cameras, roi_from_points, ImportError, ImportedView, Roi, RoiChoice,
+};
 use crate::scene::Camera;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use std::collections::BTreeMap;
@@ -475,6 +477,19 @@ pub fn quaternion(r: &Matrix3<f64>) -> [f64; 4] {
     [s * q.w, s * q.i, s * q.j, s * q.k]
 }
 
+/// What the automatic region of interest of [`import`] is computed from (`--roi-from`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum RoiSource {
+    /// The sparse points ([`roi_from_points`]): any capture, but only as complete as the points
+    /// are; an object seen from one side gets a sphere about its visible side.
+    #[default]
+    Points,
+    /// The camera layout ([`roi_from_cameras`]): the point nearest every optical axis and the
+    /// largest sphere about it every camera sees whole; for captures that orbit an object and
+    /// keep it in frame (DTU's rig, the simulator's), whatever the points cover.
+    Cameras,
+}
+
 /// Options of [`import`].
 #[derive(Clone, Debug, Default)]
 pub struct ColmapImport {
@@ -484,9 +499,10 @@ pub struct ColmapImport {
     pub images: PathBuf,
     /// Optional mask folder (see [`find_mask`] for how masks are matched).
     pub masks: Option<PathBuf>,
-    /// Region of interest override; `None` chooses it from the sparse points
-    /// ([`roi_from_points`]).
+    /// Region of interest override; `None` chooses it from [`Self::roi_from`].
     pub roi: Option<Roi>,
+    /// What the automatic region of interest is computed from (ignored with `roi`).
+    pub roi_from: RoiSource,
 }
 
 /// Reads the model and turns it into views sorted by image name plus a region of interest.
@@ -598,6 +614,10 @@ pub fn import(
             roi,
             method: "given by --roi-center and --roi-radius".into(),
         },
+        None if opts.roi_from == RoiSource::Cameras => {
+            let cameras: Vec<Camera> = views.iter().map(|v| v.camera.clone()).collect();
+            roi_from_cameras(&cameras)?
+        }
         None => {
             let points: Vec<([f64; 3], usize)> = model
                 .points
