@@ -60,7 +60,7 @@ pub enum ImportSource {
         #[command(flatten)]
         roi: RoiArgs,
         /// What the automatic region of interest comes from: `points` (the sparse points seen by
-        /// >= 3 images) or `cameras` (the point nearest every optical axis, and the largest
+        /// three images or more) or `cameras` (the point nearest every optical axis, and the largest
         /// sphere about it every camera sees whole: for captures orbiting an object, whose
         /// sparse points may cover only the side the cameras see best).
         #[arg(long, value_enum, default_value_t = colmap::RoiSource::Points)]
