@@ -602,21 +602,19 @@ mod tests {
         assert!(worst < 2.0f64.powi(-22), "f32 kernels vs f64: {worst:e}");
     }
 
-    /// The dispatch rule of the module docs.
+    /// The kernel chosen at build time can run on the CPU running the tests (the build's target
+    /// features are present), and the fast kernels specialise only the widths they have tiles for.
     #[test]
-    fn build_selects_the_documented_kernel() {
-        let want = if cfg!(all(target_arch = "x86_64", target_feature = "avx512f")) {
-            Kernel::WideTiles
-        } else if cfg!(all(
-            target_arch = "x86_64",
-            target_feature = "avx2",
-            target_feature = "fma"
-        )) {
-            Kernel::PanelTiles
-        } else {
-            Kernel::MatrixMultiply
-        };
-        assert_eq!(KERNEL, want);
+    fn build_selects_a_kernel_this_cpu_runs() {
+        #[cfg(target_arch = "x86_64")]
+        match KERNEL {
+            Kernel::WideTiles => assert!(std::arch::is_x86_feature_detected!("avx512f")),
+            Kernel::PanelTiles => assert!(
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+            ),
+            Kernel::MatrixMultiply => {}
+        }
         assert!(!Kernel::MatrixMultiply.specialises(64));
         assert!(Kernel::PanelTiles.specialises(16) && !Kernel::WideTiles.specialises(13));
     }
