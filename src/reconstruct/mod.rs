@@ -637,11 +637,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             height: h,
             data: o.rgb.iter().flatten().copied().collect(),
         };
-        let normal = RgbImage {
-            width: w,
-            height: h,
-            data: o.normal.iter().flatten().map(|c| 0.5 * c + 0.5).collect(),
-        };
+        let normal = normal_error::normal_image(w, h, &o.normal, &o.opacity, bg);
         rgb.save(&renders.join(format!("view{v:03}_rgb.png")))?;
         normal.save(&renders.join(format!("view{v:03}_normal.png")))?;
         gt.save(&renders.join(format!("view{v:03}_gt.png")))?;

@@ -10,10 +10,43 @@
 //! left to Chamfer.
 
 use crate::mesh::TriMesh;
-use crate::scene::Normalization;
+use crate::scene::{Normalization, RgbImage};
 use crate::sim::setup::Tracer;
 use glam::Vec3A;
 use obvhs::triangle::Triangle;
+
+/// The held-out normal picture of `width × height` pixels: each pixel's rendered normal
+/// `n [3]` (unit, normalised space = world axes) mapped to colour as `0.5·n + 0.5`, composited
+/// over the render background `bg` by the pixel's opacity `o`, `o·(0.5·n + 0.5) + (1 − o)·bg`,
+/// as the RGB render is. Without the opacity the renormalised normal of a nearly empty pixel
+/// (weights of 1e-3 across a hole) shows as full-strength noise, and an open hole looks closed.
+pub fn normal_image(
+    width: usize,
+    height: usize,
+    normals: &[[f32; 3]],
+    opacity: &[f32],
+    bg: [f32; 3],
+) -> RgbImage {
+    assert_eq!(normals.len(), opacity.len(), "one opacity per normal");
+    assert_eq!(normals.len(), width * height, "one normal per pixel");
+    let data = normals
+        .iter()
+        .zip(opacity)
+        .flat_map(|(n, &o)| {
+            let o = if o.is_finite() {
+                o.clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            std::array::from_fn::<f32, 3, _>(|k| o * (0.5 * n[k] + 0.5) + (1.0 - o) * bg[k])
+        })
+        .collect();
+    RgbImage {
+        width,
+        height,
+        data,
+    }
+}
 
 /// A ground-truth mesh ready for normal queries (normalised space).
 pub struct GtNormals {
@@ -97,6 +130,18 @@ impl GtNormals {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn normal_image_shows_the_background_where_nothing_is_opaque() {
+        let up = [0.0, 0.0, 1.0];
+        // Pixel 0: opaque; 1: empty (a hole: tiny weights, renormalised normal); 2: half; 3: NaN
+        // opacity (treated as empty, never written as NaN).
+        let img = normal_image(2, 2, &[up; 4], &[1.0, 0.0, 0.5, f32::NAN], [1.0, 1.0, 1.0]);
+        assert_eq!(&img.data[0..3], &[0.5, 0.5, 1.0]);
+        assert_eq!(&img.data[3..6], &[1.0, 1.0, 1.0]);
+        assert_eq!(&img.data[6..9], &[0.75, 0.75, 1.0]);
+        assert_eq!(&img.data[9..12], &[1.0, 1.0, 1.0]);
+    }
 
     #[test]
     fn flat_square_gives_the_tilt_angle() {

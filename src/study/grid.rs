@@ -6,6 +6,7 @@
 use super::StudyError;
 use crate::augment::{AugMode, Degradation, DegradationKind};
 use crate::reconstruct::{Preset, RunConfig};
+use crate::render::Scheduled;
 use crate::sim;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -302,6 +303,37 @@ fn set(key: &str, value: impl std::fmt::Display) -> String {
     format!("{key}={value}")
 }
 
+/// The `--set`s that keep every other step-indexed schedule of `base` at the same fraction of a
+/// run whose length is scaled (`scale` maps a step of `base` to the scaled run): the
+/// coarse-to-fine hash levels (`model.field.hash_grid.progressive`) and every ramped loss weight
+/// (e.g. the presets' delayed curvature, `[n/2, 0, 5e-4, 3n/5]`). Without them a shortened run
+/// would end before its finest levels and its curvature turn on.
+fn step_schedule_sets(base: &RunConfig, scale: &dyn Fn(u64) -> u64) -> Vec<String> {
+    let mut v = Vec::new();
+    if let Some(p) = &base.model.field.hash_grid.progressive {
+        let prefix = "model.field.hash_grid.progressive";
+        v.push(set(&format!("{prefix}.start_step"), scale(p.start_step)));
+        v.push(set(
+            &format!("{prefix}.update_steps"),
+            scale(p.update_steps).max(1),
+        ));
+    }
+    let l = &base.model.loss;
+    for (name, w) in [
+        ("rgb_l1", l.rgb_l1),
+        ("rgb_mse", l.rgb_mse),
+        ("eikonal", l.eikonal),
+        ("mask", l.mask),
+        ("curvature", l.curvature),
+    ] {
+        if let Scheduled::Linear(s0, a, b, s1) = w {
+            let scaled = Scheduled::Linear(scale(s0), a, b, scale(s1));
+            v.push(set(&format!("model.loss.{name}"), scaled));
+        }
+    }
+    v
+}
+
 /// The pareto variants around `base` (the study's preset + base config + `--set`), in plot
 /// order: `(condition, preset, sets, reuses_centre)`. Iterations scale the schedule with them
 /// (cos-anneal end and the constant learning-rate phase keep their fraction of the run).
@@ -325,7 +357,10 @@ pub fn pareto_variants(base: &RunConfig) -> Vec<(String, Preset, Vec<String>, bo
                     scale(base.train.lr.constant_steps),
                 ),
                 set("train.lr.warmup_steps", scale(base.train.lr.warmup_steps)),
-            ],
+            ]
+            .into_iter()
+            .chain(step_schedule_sets(base, &scale))
+            .collect(),
             false,
         ));
     }
@@ -611,6 +646,48 @@ mod tests {
             ids.len(),
             t2.len() + red.len() + deg.len() + mild.len() + par.len()
         );
+    }
+
+    #[test]
+    fn shortened_pareto_runs_keep_every_schedule_at_its_fraction_of_the_run() {
+        let base = Preset::Fast.config();
+        let n = base.train.iterations;
+        for (cond, preset, sets, _) in pareto_variants(&base) {
+            let Some(it) = cond.strip_prefix("iterations=") else {
+                continue;
+            };
+            let it: u64 = it.parse().unwrap();
+            let parsed: Vec<_> = sets
+                .iter()
+                .map(|s| crate::reconstruct::parse_set(s).unwrap())
+                .collect();
+            let c = crate::reconstruct::resolve(Some(preset), None, &parsed).unwrap();
+            assert_eq!(c.train.iterations, it);
+            let k = it as f64 / n as f64;
+            // Every hash level is on at the same fraction of the run as in the base.
+            let all_on = |c: &RunConfig| {
+                let p = c.model.field.hash_grid.progressive.clone().unwrap();
+                p.start_step
+                    + (c.model.field.hash_grid.n_levels - p.start_level) as u64 * p.update_steps
+            };
+            let (f0, f1) = (
+                all_on(&base) as f64 / n as f64,
+                all_on(&c) as f64 / it as f64,
+            );
+            assert!(
+                (f0 - f1).abs() < 0.1,
+                "{cond}: levels all on at {f1} of the run, base {f0}"
+            );
+            // The curvature ramp is where the base has it, scaled.
+            let (Scheduled::Linear(a0, _, w0, b0), Scheduled::Linear(a1, _, w1, b1)) =
+                (base.model.loss.curvature, c.model.loss.curvature)
+            else {
+                panic!("{cond}: the fast preset ramps its curvature");
+            };
+            assert_eq!(w0, w1, "{cond}");
+            assert_eq!(a1, (a0 as f64 * k).round() as u64, "{cond}");
+            assert_eq!(b1, ((b0 as f64 * k).round() as u64).min(it), "{cond}");
+        }
     }
 
     #[test]
