@@ -248,7 +248,9 @@ fn occupancy_update_finds_the_sphere() {
 fn bg_density_bias(model: &NeusModel) -> usize {
     let g = model.layout.group("bg_density").unwrap();
     let mlp = &model.background.as_ref().unwrap().density;
-    g.offset + mlp.weight_offset(mlp.n_layers() - 1) + mlp.dims[mlp.n_layers() - 1] * mlp.dims[mlp.n_layers()]
+    g.offset
+        + mlp.weight_offset(mlp.n_layers() - 1)
+        + mlp.dims[mlp.n_layers() - 1] * mlp.dims[mlp.n_layers()]
 }
 
 /// The learned background on hard rays (issue 16): through the box, starting inside it,
@@ -293,26 +295,40 @@ fn background_on_hard_rays() {
     let mut p = perturbed_params(&model, seed());
     let bias = bg_density_bias(&model);
     let n_fg = plain.n_params();
-    assert_eq!(&model.layout.groups[..5], &plain.layout.groups[..], "shared prefix");
+    assert_eq!(
+        &model.layout.groups[..5],
+        &plain.layout.groups[..],
+        "shared prefix"
+    );
     for (raw, what) in [(-1e4f32, "zero"), (0.0, "moderate"), (1e4, "saturated")] {
         p[bias] = raw;
         let mut g = vec![0f32; p.len()];
         let o = model
             .train_step(&p, &mut g, &rays, &t, sched, None, 1)
             .unwrap();
-        assert_eq!(o.n_valid_rays, 6, "{what}: every ray has background samples");
+        assert_eq!(
+            o.n_valid_rays, 6,
+            "{what}: every ray has background samples"
+        );
         assert!(o.total.is_finite() && all_finite(&g), "{what}: {o:?}");
         let r = model.render(&p, &rays, sched, None).unwrap();
         let c_bg = model.render_background(&p, &rays).unwrap();
         assert!(
-            r.rgb.iter().chain(&c_bg).flatten().all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
+            r.rgb
+                .iter()
+                .chain(&c_bg)
+                .flatten()
+                .all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
             "{what}: {r:?}"
         );
         if what == "zero" {
             let rp = plain.render(&p[..n_fg], &rays, sched, None).unwrap();
             for i in 0..6 {
                 for k in 0..3 {
-                    assert!((r.rgb[i][k] - rp.rgb[i][k]).abs() < 1e-6, "ray {i}: {r:?} vs {rp:?}");
+                    assert!(
+                        (r.rgb[i][k] - rp.rgb[i][k]).abs() < 1e-6,
+                        "ray {i}: {r:?} vs {rp:?}"
+                    );
                 }
                 assert_eq!(c_bg[i], model.config.render.background);
             }

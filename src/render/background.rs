@@ -74,8 +74,7 @@ pub fn sample_background(
     for k in 0..n {
         let u = jitter.map_or(0.5, |j| j[k] as f64);
         t[k] = t_of(s_of((k as f64 + u) / n as f64)) as f32;
-        dt[k] =
-            (t_of(s_of((k + 1) as f64 / n as f64)) - t_of(s_of(k as f64 / n as f64))) as f32;
+        dt[k] = (t_of(s_of((k + 1) as f64 / n as f64)) - t_of(s_of(k as f64 / n as f64))) as f32;
     }
 }
 
@@ -196,7 +195,10 @@ pub fn composite_two_forward<T: Real>(
     behind: [T; 3],
 ) -> (Composite<T>, [T; 3]) {
     let c_bg = background_color(bg.alpha, bg.rgb, behind);
-    (composite_forward(fg.alpha, fg.rgb, fg.t, fg_normal, c_bg), c_bg)
+    (
+        composite_forward(fg.alpha, fg.rgb, fg.t, fg_normal, c_bg),
+        c_bg,
+    )
 }
 
 /// Gradients of one ray's loss, `∂L/∂C`, `∂L/∂O_fg`, `∂L/∂D_fg`.
@@ -230,7 +232,15 @@ pub fn composite_two_backward<T: Real>(
     );
     let g_bg = g.rgb.map(|v| v * (T::ONE - fg_opacity));
     composite_backward(
-        bg.alpha, bg.rgb, bg.t, behind, g_bg, T::ZERO, T::ZERO, d_bg_alpha, d_bg_rgb,
+        bg.alpha,
+        bg.rgb,
+        bg.t,
+        behind,
+        g_bg,
+        T::ZERO,
+        T::ZERO,
+        d_bg_alpha,
+        d_bg_rgb,
     );
 }
 
@@ -304,7 +314,12 @@ impl BackgroundField {
             ("model.background.n_outside", cfg.n_outside, 1, 4096),
             ("model.background.n_frequencies", cfg.n_frequencies, 0, 16),
             ("model.background.n_neurons", cfg.n_neurons, 1, 1024),
-            ("model.background.n_hidden_layers", cfg.n_hidden_layers, 1, 16),
+            (
+                "model.background.n_hidden_layers",
+                cfg.n_hidden_layers,
+                1,
+                16,
+            ),
             (
                 "model.background.color_hidden_layers",
                 cfg.color_hidden_layers,
@@ -555,7 +570,10 @@ mod tests {
                 &mut dba,
                 &mut dbc,
             );
-            let all = dfa.iter().chain(&dba).chain(dfc.iter().chain(&dbc).flatten());
+            let all = dfa
+                .iter()
+                .chain(&dba)
+                .chain(dfc.iter().chain(&dbc).flatten());
             assert!(all.into_iter().all(|v| v.is_finite()));
             let h = 1e-6;
             let l = |fa: &[f64], fc: &[[f64; 3]], ba: &[f64], bc: &[[f64; 3]]| {
@@ -645,8 +663,8 @@ mod tests {
             for dt in [0.01, 0.5, 3.0] {
                 let (_, an) = density_alpha(sigma, dt);
                 let h = 1e-6;
-                let fd = (density_alpha(sigma + h, dt).0 - density_alpha(sigma - h, dt).0)
-                    / (2.0 * h);
+                let fd =
+                    (density_alpha(sigma + h, dt).0 - density_alpha(sigma - h, dt).0) / (2.0 * h);
                 assert!(
                     (an - fd).abs() < 1e-8 + 1e-6 * fd.abs(),
                     "σ {sigma} δ {dt}: {an} vs {fd}"
@@ -685,7 +703,10 @@ mod tests {
         let n = 8;
         let mut rng = Pcg64Mcg::seed_from_u64(3);
         for (o, d, t0) in rays {
-            for jitter in [None, Some((0..n).map(|_| rng.random::<f32>()).collect::<Vec<_>>())] {
+            for jitter in [
+                None,
+                Some((0..n).map(|_| rng.random::<f32>()).collect::<Vec<_>>()),
+            ] {
                 let (mut t, mut dt) = (vec![0f32; n], vec![0f32; n]);
                 sample_background(o, d, r, n, jitter.as_deref(), &mut t, &mut dt);
                 let mut edge = t0 as f64;
@@ -710,7 +731,15 @@ mod tests {
         }
         // Uniform in inverse distance: equal steps of 1/(t − t₀ + r) between the midpoints.
         let (mut t, mut dt) = (vec![0f32; 4], vec![0f32; 4]);
-        sample_background([0.0, 0.0, -3.0], [0.0, 0.0, 1.0], 1.0, 4, None, &mut t, &mut dt);
+        sample_background(
+            [0.0, 0.0, -3.0],
+            [0.0, 0.0, 1.0],
+            1.0,
+            4,
+            None,
+            &mut t,
+            &mut dt,
+        );
         let inv: Vec<f64> = t.iter().map(|&v| 1.0 / (v as f64 - 4.0 + 1.0)).collect();
         let step = inv[0] - inv[1];
         for w in inv.windows(2) {
@@ -738,8 +767,14 @@ mod tests {
         let mut pc = vec![0f32; field.color.n_params()];
         field.density.init_kaiming(&mut pd, &mut rng);
         field.color.init_kaiming(&mut pc, &mut rng);
-        let mut pd: Vec<f64> = pd.iter().map(|&v| v as f64 + rng.random_range(-0.1..0.1)).collect();
-        let mut pc: Vec<f64> = pc.iter().map(|&v| v as f64 + rng.random_range(-0.1..0.1)).collect();
+        let mut pd: Vec<f64> = pd
+            .iter()
+            .map(|&v| v as f64 + rng.random_range(-0.1..0.1))
+            .collect();
+        let mut pc: Vec<f64> = pc
+            .iter()
+            .map(|&v| v as f64 + rng.random_range(-0.1..0.1))
+            .collect();
         let nb = 6;
         let x: Vec<[f64; 3]> = (0..nb)
             .map(|i| [1.5 + i as f64 * 3.0, -0.5 * i as f64, 2.0])
@@ -754,9 +789,7 @@ mod tests {
             let mut sc = BackgroundScratch::default();
             field.forward(pd, pc, &x, &dirs, &dt, 1.0, &mut sc);
             (0..nb)
-                .map(|i| {
-                    wa[i] * sc.alpha[i] + (0..3).map(|k| wc[i][k] * sc.rgb[i][k]).sum::<f64>()
-                })
+                .map(|i| wa[i] * sc.alpha[i] + (0..3).map(|k| wc[i][k] * sc.rgb[i][k]).sum::<f64>())
                 .sum::<f64>()
         };
         let mut sc = BackgroundScratch::default();

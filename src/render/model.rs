@@ -25,9 +25,7 @@
 //! [`crate::field::alloc::LargeAligned`] (cache-line alignment, huge pages).
 
 use super::alpha::{inv_s_from_variance, neus_alpha};
-use super::background::{
-    background_color, BackgroundField, BackgroundSamples, BackgroundScratch,
-};
+use super::background::{background_color, BackgroundField, BackgroundSamples, BackgroundScratch};
 use super::config::ModelConfig;
 use super::occupancy::OccupancyGrid;
 use super::ray_loss::{BatchCounts, RayLoss};
@@ -665,9 +663,9 @@ impl NeusModel {
         const RAYS: usize = 64;
         let n = batch.origins.len();
         let mut out = vec![[0f32; 3]; n];
-        out.par_chunks_mut(RAYS)
-            .enumerate()
-            .for_each_init(BackgroundScratch::<f32>::default, |sc, (c, o)| {
+        out.par_chunks_mut(RAYS).enumerate().for_each_init(
+            BackgroundScratch::<f32>::default,
+            |sc, (c, o)| {
                 let r0 = c * RAYS;
                 let (mut x, mut dirs) = (Vec::new(), Vec::new());
                 for ray in r0..r0 + o.len() {
@@ -678,20 +676,13 @@ impl NeusModel {
                     }
                 }
                 let span = r0 * k..(r0 + o.len()) * k;
-                field.forward(
-                    pg.bg_density,
-                    pg.bg_color,
-                    &x,
-                    &dirs,
-                    &s.dt[span],
-                    r,
-                    sc,
-                );
+                field.forward(pg.bg_density, pg.bg_color, &x, &dirs, &s.dt[span], r, sc);
                 for (i, c) in o.iter_mut().enumerate() {
                     let rg = i * k..(i + 1) * k;
                     *c = background_color(&sc.alpha[rg.clone()], &sc.rgb[rg], behind);
                 }
-            });
+            },
+        );
         Ok(out)
     }
 

@@ -154,7 +154,13 @@ impl NeusModel {
 
         if let Some(field) = &self.background {
             let t_bg = Instant::now();
-            field.backward(p.bg_density, p.bg_color, g.bg_density, g.bg_color, &mut sc.bg);
+            field.backward(
+                p.bg_density,
+                p.bg_color,
+                g.bg_density,
+                g.bg_color,
+                &mut sc.bg,
+            );
             times.background += t_bg.elapsed().as_secs_f64();
         }
     }

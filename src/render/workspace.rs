@@ -186,7 +186,9 @@ pub(super) const BG_COLOR: &str = "bg_color";
 
 /// The index range of an optional group (empty, at the end, when the layout lacks it).
 fn optional_group(layout: &ParamLayout, name: &str) -> std::ops::Range<usize> {
-    layout.group(name).map_or(layout.total()..layout.total(), |g| g.range())
+    layout
+        .group(name)
+        .map_or(layout.total()..layout.total(), |g| g.range())
 }
 
 /// The flat index range of the group `name` (every model layout has all five groups).
