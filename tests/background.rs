@@ -47,10 +47,13 @@ fn background() -> BackgroundConfig {
     }
 }
 
+/// Origins and directions (normalised space) and target colours of some pixels, `[n][3]` each.
+type PixelRays = (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[f32; 3]>);
+
 /// The pixels of `view` whose ray misses the marched box (only the background can explain them)
 /// and whose colour is not the simulator's empty-space colour (so they see the table): their
 /// rays and target colours.
-fn table_pixels(view: &View, empty: [f32; 3]) -> (Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<[f32; 3]>) {
+fn table_pixels(view: &View, empty: [f32; 3]) -> PixelRays {
     let (origins, dirs) = camera_rays(&view.camera);
     let (mut o, mut d, mut c) = (Vec::new(), Vec::new(), Vec::new());
     let w = view.camera.width as usize;
