@@ -3,7 +3,7 @@
 
 mod field_common;
 
-use field_common::{batch, perturbed_params, seed, tiny_config};
+use field_common::{batch, perturbed_params, seed, tiny_background_config, tiny_config};
 use neus_aug::render::NeusModel;
 use neus_aug::train::TrainStep;
 use rand::{Rng, SeedableRng};
@@ -27,6 +27,14 @@ fn recipe_loss_gradients_match_central_differences() {
         let out = check_full_gradient(cfg);
         assert!(out.curvature > 0.0, "{out:?}");
     }
+}
+
+/// The learned background (issue 16): its two networks join the check, through the two-layer
+/// compositing `C = C_fg + (1 − O_fg)·C_bg`; every ray counts as valid.
+#[test]
+fn background_gradient_matches_central_differences() {
+    let out = check_full_gradient(tiny_background_config());
+    assert_eq!(out.n_valid_rays, out.n_rays, "{out:?}");
 }
 
 /// Coarse-to-fine levels (2 of the tiny grid's 6 active at the checked step): the inactive

@@ -4,7 +4,7 @@
 
 mod field_common;
 
-use field_common::{batch, perturbed_params, seed, tiny_config};
+use field_common::{batch, perturbed_params, seed, tiny_background_config, tiny_config};
 use neus_aug::render::{NeusModel, OccupancyGrid, RayBatch};
 use neus_aug::train::{AdamW, AdamWConfig, OptimError, Targets, TrainStep};
 
@@ -242,4 +242,106 @@ fn occupancy_update_finds_the_sphere() {
     );
     let f = grid.occupied_fraction();
     assert!(f > 0.01 && f < 0.5, "occupied fraction {f}");
+}
+
+/// The learned background's density network output channel 0 (raw density) bias index.
+fn bg_density_bias(model: &NeusModel) -> usize {
+    let g = model.layout.group("bg_density").unwrap();
+    let mlp = &model.background.as_ref().unwrap().density;
+    g.offset
+        + mlp.weight_offset(mlp.n_layers() - 1)
+        + mlp.dims[mlp.n_layers() - 1] * mlp.dims[mlp.n_layers()]
+}
+
+/// The learned background on hard rays (issue 16): through the box, starting inside it,
+/// running along a box edge, grazing a corner, missing the box, pointing away from it. With zero
+/// background density the render equals the model without a background (same foreground
+/// parameters: the layouts share their prefix); with saturated density a ray that misses the
+/// box takes the background network's colour; training values stay finite in both, and in
+/// between.
+#[test]
+fn background_on_hard_rays() {
+    let model = NeusModel::new(tiny_background_config()).unwrap();
+    let plain = NeusModel::new(tiny_config()).unwrap();
+    let s = std::f32::consts::FRAC_1_SQRT_2;
+    let origins = [
+        [0.0, 0.0, -3.0],
+        [0.2, 0.1, 0.3],
+        [-3.0, 1.0, 1.0],
+        [-2.0, 0.0, 0.0],
+        [0.0, 5.0, -3.0],
+        [0.0, 0.0, 3.0],
+    ];
+    let dirs = [
+        [0.0, 0.0, 1.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [s, s, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let rgb = [[0.2, 0.3, 0.4]; 6];
+    let rays = RayBatch {
+        origins: &origins,
+        dirs: &dirs,
+        codes: &[],
+        p: &[],
+    };
+    let t = Targets {
+        rgb: &rgb,
+        mask: None,
+    };
+    let sched = model.config.schedule(10);
+    let mut p = perturbed_params(&model, seed());
+    let bias = bg_density_bias(&model);
+    let n_fg = plain.n_params();
+    assert_eq!(
+        &model.layout.groups[..5],
+        &plain.layout.groups[..],
+        "shared prefix"
+    );
+    for (raw, what) in [(-1e4f32, "zero"), (0.0, "moderate"), (1e4, "saturated")] {
+        p[bias] = raw;
+        let mut g = vec![0f32; p.len()];
+        let o = model
+            .train_step(&p, &mut g, &rays, &t, sched, None, 1)
+            .unwrap();
+        assert_eq!(
+            o.n_valid_rays, 6,
+            "{what}: every ray has background samples"
+        );
+        assert!(o.total.is_finite() && all_finite(&g), "{what}: {o:?}");
+        let r = model.render(&p, &rays, sched, None).unwrap();
+        let c_bg = model.render_background(&p, &rays).unwrap();
+        assert!(
+            r.rgb
+                .iter()
+                .chain(&c_bg)
+                .flatten()
+                .all(|v| v.is_finite() && (0.0..=1.0).contains(v)),
+            "{what}: {r:?}"
+        );
+        if what == "zero" {
+            let rp = plain.render(&p[..n_fg], &rays, sched, None).unwrap();
+            for (i, (a, b)) in r.rgb.iter().zip(&rp.rgb).enumerate() {
+                for k in 0..3 {
+                    assert!((a[k] - b[k]).abs() < 1e-6, "ray {i}: {r:?} vs {rp:?}");
+                }
+                assert_eq!(c_bg[i], model.config.render.background);
+            }
+            // No background gradient reaches the density network through a zero density
+            // (softplus' slope at −1e4 underflows), but the loss still trains the foreground.
+        }
+        if what == "saturated" {
+            // Rays 4 and 5 miss the box: their colour is the background network's first sample.
+            for i in [4, 5] {
+                assert_eq!(r.opacity[i], 0.0);
+                assert_eq!(r.rgb[i], c_bg[i]);
+                assert_ne!(c_bg[i], model.config.render.background, "ray {i}");
+            }
+        }
+    }
+    // Without a background there is nothing to render.
+    let err = plain.render_background(&p[..n_fg], &rays).unwrap_err();
+    assert!(err.to_string().contains("model.background.kind"), "{err}");
 }

@@ -7,7 +7,8 @@ use serde::{Deserialize, Serialize};
 /// One named slice of the flat buffer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParamGroup {
-    /// `hash_grid`, `sdf_mlp`, `color_mlp`, `variance` or `appearance`.
+    /// `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`, or with a learned
+    /// background (`crate::render::background`) `bg_density` and `bg_color`.
     pub name: String,
     /// First element in the flat buffer.
     pub offset: usize,

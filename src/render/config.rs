@@ -117,6 +117,74 @@ impl Default for LossConfig {
     }
 }
 
+/// Which background model composites behind the foreground (`[model.background] kind`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BackgroundKind {
+    /// The constant `render.background` colour (the default; what every run used before).
+    #[default]
+    None,
+    /// A learned radiance field outside the marched box on NeRF++'s inverted-sphere coordinates
+    /// (NeuS `models/renderer.py` `render_core_outside`; see [`super::background`]).
+    Nerfpp,
+}
+
+/// The learned background (`[model.background]`), for training without masks (issue 16): NeuS
+/// `confs/womask.conf` (`n_outside = 32`, a NeRF with 8 layers of 256), instant-nsr-pl
+/// `configs/neus-dtu.yaml` (`learned_background: true`, a hash grid → 64 → 1 + 8 density network
+/// and an 8 + SH(4) → 64 → 64 → 3 colour network). Here a frequency encoding replaces both
+/// references' heavier position encodings, to stay cheap on a CPU; the sizes are this
+/// project's choice. Off by default: with `kind = "none"` nothing else here is read, the
+/// parameter layout has no background group, and the section is not even written into a
+/// resolved config, so every existing config, preset and checkpoint is unchanged.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct BackgroundConfig {
+    /// `"none"` (constant colour) or `"nerfpp"` (learned field outside the box).
+    pub kind: BackgroundKind,
+    /// Samples per ray beyond the box exit, spaced uniformly in inverse distance (NeuS
+    /// `n_outside = 32`).
+    pub n_outside: usize,
+    /// Frequencies `L` of the encoding `[q, sin(2^l q), cos(2^l q)]_{l<L}` of the 4-vector
+    /// inverted-sphere point `q` (input width `4(1 + 2L)`; NeuS's NeRF uses 10).
+    pub n_frequencies: usize,
+    /// Width of the hidden layers of both background networks (64).
+    pub n_neurons: usize,
+    /// Hidden layers of the density network (2).
+    pub n_hidden_layers: usize,
+    /// Hidden layers of the colour network (1).
+    pub color_hidden_layers: usize,
+    /// Feature channels passed from the density network to the colour network (15: with the
+    /// density channel, 16 outputs, a width the register kernels specialise).
+    pub feature_dim: usize,
+}
+
+impl Default for BackgroundConfig {
+    fn default() -> Self {
+        Self {
+            kind: BackgroundKind::None,
+            n_outside: 32,
+            n_frequencies: 6,
+            n_neurons: 64,
+            n_hidden_layers: 2,
+            color_hidden_layers: 1,
+            feature_dim: 15,
+        }
+    }
+}
+
+impl BackgroundConfig {
+    /// Whether a learned background is on.
+    pub fn enabled(&self) -> bool {
+        self.kind != BackgroundKind::None
+    }
+
+    /// Every field at its default (the section is then left out of a written config).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
 /// Everything that defines a model (sits in the TOML config as `[model]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -124,6 +192,9 @@ pub struct ModelConfig {
     pub field: FieldConfig,
     pub render: RenderConfig,
     pub loss: LossConfig,
+    /// The learned background (off by default).
+    #[serde(skip_serializing_if = "BackgroundConfig::is_default")]
+    pub background: BackgroundConfig,
 }
 
 #[cfg(test)]
@@ -141,5 +212,15 @@ mod tests {
         assert_eq!(partial.render, RenderConfig::default());
         let err = toml::from_str::<ModelConfig>("[render]\nradiuss = 2.0\n").unwrap_err();
         assert!(err.to_string().contains("radiuss"), "{err}");
+        // The background section: absent from a default config's text, round-trips when set.
+        assert!(!text.contains("background]"), "{text}");
+        let bg: ModelConfig =
+            toml::from_str("[background]\nkind = \"nerfpp\"\nn_outside = 8\n").unwrap();
+        assert!(bg.background.enabled());
+        assert_eq!(bg.background.n_outside, 8);
+        let text = toml::to_string(&bg).unwrap();
+        assert_eq!(toml::from_str::<ModelConfig>(&text).unwrap(), bg);
+        let err = toml::from_str::<ModelConfig>("[background]\nkind = \"nerf\"\n").unwrap_err();
+        assert!(err.to_string().contains("nerf"), "{err}");
     }
 }

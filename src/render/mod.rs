@@ -1,5 +1,6 @@
 //! Rendering a NeuS field: rays and box intersection ([`rays`]), the occupancy grid
-//! ([`occupancy`]), the NeuS alpha ([`alpha`]), compositing ([`composite`]), the model's
+//! ([`occupancy`]), the NeuS alpha ([`alpha`]), compositing ([`composite`]), the learned
+//! background for training without masks ([`background`]), the model's
 //! configuration ([`config`]) and its step-dependent values ([`schedule`]), and the model
 //! ([`model`]: public API, shard orchestration and reduction) whose batched forward/backward runs
 //! chunk by chunk, one function per phase (`step.rs`), on reused buffers (`workspace.rs`).
@@ -10,6 +11,7 @@
 //! (object inside the unit sphere), f32, origins `[n][3]` and unit directions `[n][3]`.
 
 pub mod alpha;
+pub mod background;
 pub mod composite;
 pub mod config;
 pub mod model;
@@ -20,7 +22,9 @@ pub mod schedule;
 mod step;
 mod workspace;
 
-pub use config::{LossConfig, MaskBce, ModelConfig, RenderConfig};
+pub use config::{
+    BackgroundConfig, BackgroundKind, LossConfig, MaskBce, ModelConfig, RenderConfig,
+};
 pub use model::{BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch, RenderOutput};
 pub use occupancy::{OccupancyConfig, OccupancyGrid};
 pub use ray_loss::{BatchCounts, RayLoss, SampleWeights};

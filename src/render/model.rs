@@ -25,6 +25,7 @@
 //! [`crate::field::alloc::LargeAligned`] (cache-line alignment, huge pages).
 
 use super::alpha::{inv_s_from_variance, neus_alpha};
+use super::background::{background_color, BackgroundField, BackgroundSamples, BackgroundScratch};
 use super::config::ModelConfig;
 use super::occupancy::OccupancyGrid;
 use super::ray_loss::{BatchCounts, RayLoss};
@@ -32,8 +33,8 @@ use super::rays::{march_rays, RaySamples};
 use super::schedule::Schedule;
 use super::step::{StepCtx, Sums};
 use super::workspace::{
-    group, split, split_mut, Scratch, WorkspaceCache, APPEARANCE, COLOR_MLP, HASH_GRID, SDF_MLP,
-    VARIANCE,
+    group, split, split_mut, Scratch, WorkspaceCache, APPEARANCE, BG_COLOR, BG_DENSITY, COLOR_MLP,
+    HASH_GRID, SDF_MLP, VARIANCE,
 };
 use crate::field::config::ConfigError;
 use crate::field::mlp::MlpTape;
@@ -101,6 +102,8 @@ pub struct PhaseTimes {
     pub sdf_mlp_bwd: f64,
     pub encode_bwd: f64,
     pub reduce: f64,
+    /// The learned background's networks, forward and backward (0 without one).
+    pub background: f64,
 }
 
 impl PhaseTimes {
@@ -114,6 +117,7 @@ impl PhaseTimes {
         self.sdf_mlp_bwd += o.sdf_mlp_bwd;
         self.encode_bwd += o.encode_bwd;
         self.reduce += o.reduce;
+        self.background += o.background;
     }
 }
 
@@ -134,9 +138,9 @@ pub struct BackwardOutput<S> {
 /// Rendered rays (no gradients).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RenderOutput {
-    /// `[n][3]` colour including the background.
+    /// `[n][3]` colour including the background (the learned one when it is on).
     pub rgb: Vec<[f32; 3]>,
-    /// `[n]` accumulated weight.
+    /// `[n]` accumulated weight of the foreground (the learned background's is not included).
     pub opacity: Vec<f32>,
     /// `[n]` `Σ w_i t_i` (normalised units; divide by opacity for the expected surface depth).
     pub depth: Vec<f32>,
@@ -153,8 +157,11 @@ pub struct NeusModel {
     pub grid: HashGrid,
     pub sdf_mlp: Mlp,
     pub color_mlp: Mlp,
-    /// Groups in this order: `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`.
+    /// Groups in this order: `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`, and
+    /// with a learned background `bg_density`, `bg_color`.
     pub layout: ParamLayout,
+    /// The learned background's networks (`None` when `config.background` is off).
+    pub background: Option<BackgroundField>,
     /// Buffers [`NeusModel::forward_backward`] reuses between calls (see [`WorkspaceCache`]).
     workspace: WorkspaceCache,
 }
@@ -183,6 +190,18 @@ impl NeusModel {
                 key: "render.occupancy.resolution",
                 value: r.occupancy.resolution.to_string(),
                 why: "must be in 1..=1024",
+            });
+        }
+        if let Some((key, v, why)) = config
+            .background
+            .enabled()
+            .then(|| BackgroundField::validate(&config.background))
+            .flatten()
+        {
+            return Err(ModelError::Invalid {
+                key,
+                value: v.to_string(),
+                why,
             });
         }
         let f = &config.field;
@@ -218,12 +237,21 @@ impl NeusModel {
             vec![a.n_codes, if a.n_codes > 0 { a.code_dim } else { 0 }],
             1.0,
         );
+        let background = config
+            .background
+            .enabled()
+            .then(|| BackgroundField::new(&config.background));
+        if let Some(bg) = &background {
+            layout.push(BG_DENSITY, vec![bg.density.n_params()], 1.0);
+            layout.push(BG_COLOR, vec![bg.color.n_params()], 1.0);
+        }
         Ok(Self {
             config,
             grid,
             sdf_mlp,
             color_mlp,
             layout,
+            background,
             workspace: WorkspaceCache::default(),
         })
     }
@@ -234,7 +262,9 @@ impl NeusModel {
     }
 
     /// Seeded initial parameters: hash table `U(±1e-4)`, SDF MLP sphere init (or Kaiming),
-    /// colour MLP Kaiming-uniform with zero biases, `v = variance_init`, appearance table zeros.
+    /// colour MLP Kaiming-uniform with zero biases, `v = variance_init`, appearance table zeros,
+    /// background networks (when on) Kaiming-uniform with zero biases, drawn after the others so
+    /// that the other groups start the same with or without a background.
     pub fn init_params(&self, seed: u64) -> Vec<f32> {
         let mut p = vec![0f32; self.n_params()];
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
@@ -250,6 +280,10 @@ impl NeusModel {
         self.color_mlp.init_kaiming(g.color, &mut rng);
         g.var[0] = self.config.render.variance_init;
         g.app.fill(0.0);
+        if let Some(bg) = &self.background {
+            bg.density.init_kaiming(g.bg_density, &mut rng);
+            bg.color.init_kaiming(g.bg_color, &mut rng);
+        }
         p
     }
 
@@ -336,6 +370,24 @@ impl NeusModel {
         Ok(())
     }
 
+    /// Background samples of a batch (`None` without a learned background), jittered from their
+    /// own stream of `jitter_seed` so the foreground's jitter is the same with or without them.
+    fn sample_background(
+        &self,
+        b: &RayBatch,
+        jitter_seed: Option<u64>,
+    ) -> Option<BackgroundSamples> {
+        let bg = self.background.as_ref()?;
+        let mut rng = jitter_seed.map(|s| Pcg64Mcg::seed_from_u64(s ^ 0x6267_5f6a_6974_7465));
+        Some(BackgroundSamples::new(
+            b.origins,
+            b.dirs,
+            self.config.render.radius,
+            bg.n_outside,
+            rng.as_mut(),
+        ))
+    }
+
     fn sample(
         &self,
         b: &RayBatch,
@@ -361,13 +413,14 @@ impl NeusModel {
     }
 
     /// Fixed chunking: consecutive whole rays, at most `chunk_samples` samples per chunk (a longer
-    /// ray gets a chunk of its own). Returns ray boundaries.
+    /// ray gets a chunk of its own; background samples count too). Returns ray boundaries.
     fn chunks(&self, s: &RaySamples) -> Vec<usize> {
         let cap = self.config.render.chunk_samples;
+        let n_bg = self.background.as_ref().map_or(0, |b| b.n_outside);
         let mut b = vec![0usize];
         let mut cur = 0usize;
         for r in 0..s.n_rays() {
-            let m = s.range(r).len();
+            let m = s.range(r).len() + n_bg;
             if cur > 0 && cur + m > cap {
                 b.push(r);
                 cur = 0;
@@ -407,8 +460,14 @@ impl NeusModel {
         let t0 = Instant::now();
         let jitter = self.config.render.randomized.then_some(step_seed);
         let samples = self.sample(batch, occ, jitter);
+        let bg_samples = self.sample_background(batch, jitter);
         let sample_time = t0.elapsed().as_secs_f64();
-        let n_valid = (0..n).filter(|&r| !samples.range(r).is_empty()).count();
+        // With a learned background every ray has samples (behind the box at least).
+        let n_valid = if bg_samples.is_some() {
+            n
+        } else {
+            (0..n).filter(|&r| !samples.range(r).is_empty()).count()
+        };
         let counts = BatchCounts {
             n_rays: n,
             n_valid,
@@ -419,6 +478,7 @@ impl NeusModel {
         let ctx = StepCtx {
             batch,
             samples: &samples,
+            bg_samples: bg_samples.as_ref(),
             sched,
             inv_s: inv_s.to_f64(),
             counts,
@@ -540,10 +600,12 @@ impl NeusModel {
         self.check_batch(batch)?;
         let n = batch.origins.len();
         let samples = self.sample(batch, occ, None);
+        let bg_samples = self.sample_background(batch, None);
         let pg = split(&self.layout, params);
         let ctx = StepCtx {
             batch,
             samples: &samples,
+            bg_samples: bg_samples.as_ref(),
             sched,
             inv_s: inv_s_from_variance(pg.var[0]).0 as f64,
             counts: BatchCounts::default(),
@@ -572,6 +634,56 @@ impl NeusModel {
             o.normal[r] = nr;
         }
         Ok(o)
+    }
+
+    /// The learned background's colour `C_bg` of each ray (`[n][3]`, what the foreground is
+    /// composited on; [`super::background`]), without jitter, with `render.background` behind
+    /// it. An error without a learned background.
+    pub fn render_background(
+        &self,
+        params: &[f32],
+        batch: &RayBatch,
+    ) -> Result<Vec<[f32; 3]>, ModelError> {
+        self.check_params(params)?;
+        self.check_batch(batch)?;
+        let Some(field) = &self.background else {
+            return Err(ModelError::Invalid {
+                key: "model.background.kind",
+                value: "\"none\"".into(),
+                why: "there is no learned background to render",
+            });
+        };
+        let s = self
+            .sample_background(batch, None)
+            .expect("a background field samples");
+        let pg = split(&self.layout, params);
+        let r = self.config.render.radius as f64;
+        let behind = self.config.render.background;
+        let k = field.n_outside;
+        const RAYS: usize = 64;
+        let n = batch.origins.len();
+        let mut out = vec![[0f32; 3]; n];
+        out.par_chunks_mut(RAYS).enumerate().for_each_init(
+            BackgroundScratch::<f32>::default,
+            |sc, (c, o)| {
+                let r0 = c * RAYS;
+                let (mut x, mut dirs) = (Vec::new(), Vec::new());
+                for ray in r0..r0 + o.len() {
+                    let (og, d) = (batch.origins[ray], batch.dirs[ray]);
+                    for &t in &s.t[s.range(ray)] {
+                        x.push([0, 1, 2].map(|a| og[a] as f64 + d[a] as f64 * t as f64));
+                        dirs.push(d);
+                    }
+                }
+                let span = r0 * k..(r0 + o.len()) * k;
+                field.forward(pg.bg_density, pg.bg_color, &x, &dirs, &s.dt[span], r, sc);
+                for (i, c) in o.iter_mut().enumerate() {
+                    let rg = i * k..(i + 1) * k;
+                    *c = background_color(&sc.alpha[rg.clone()], &sc.rgb[rg], behind);
+                }
+            },
+        );
+        Ok(out)
     }
 
     /// SDF (channel 0 of the SDF network) at points `[n][3]` of the normalised space, with

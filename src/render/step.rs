@@ -19,6 +19,9 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::alpha::{neus_alpha, AlphaGrad};
+use super::background::{
+    composite_two_backward, composite_two_forward, BackgroundSamples, Layer, RayGrad,
+};
 use super::composite::{composite_backward, composite_forward};
 use super::model::{PhaseTimes, RayBatch, RayResult};
 use super::ray_loss::{BatchCounts, RayLoss};
@@ -35,6 +38,8 @@ use std::time::Instant;
 pub(super) struct StepCtx<'a> {
     pub(super) batch: &'a RayBatch<'a>,
     pub(super) samples: &'a RaySamples,
+    /// The learned background's samples (`None` without one).
+    pub(super) bg_samples: Option<&'a BackgroundSamples>,
     pub(super) sched: Schedule,
     pub(super) inv_s: f64,
     pub(super) counts: BatchCounts,
@@ -125,6 +130,9 @@ impl NeusModel {
     ) {
         let c = self.chunk_consts::<T>(ctx, r0, r1);
         self.forward(p, ctx, &c, sc, times);
+        let t_bg = Instant::now();
+        self.background_forward(p, ctx, &c, sc);
+        times.background += t_bg.elapsed().as_secs_f64();
 
         let t_r = Instant::now();
         self.alpha_forward::<T, true>(ctx, &c, sc);
@@ -143,6 +151,18 @@ impl NeusModel {
         let t_eb = Instant::now();
         self.encode_backward(g, &c, sc);
         times.encode_bwd += t_eb.elapsed().as_secs_f64();
+
+        if let Some(field) = &self.background {
+            let t_bg = Instant::now();
+            field.backward(
+                p.bg_density,
+                p.bg_color,
+                g.bg_density,
+                g.bg_color,
+                &mut sc.bg,
+            );
+            times.background += t_bg.elapsed().as_secs_f64();
+        }
     }
 
     /// The forward of chunk `r0..r1` without gradients: one [`RayResult`] per ray into `out`.
@@ -158,8 +178,49 @@ impl NeusModel {
         let c = self.chunk_consts::<f32>(ctx, r0, r1);
         let mut times = PhaseTimes::default();
         self.forward(p, ctx, &c, sc, &mut times);
+        self.background_forward(p, ctx, &c, sc);
         self.alpha_forward::<f32, false>(ctx, &c, sc);
         self.composite_render(ctx, &c, sc, out);
+    }
+
+    /// The learned background on the chunk's rays (nothing without one): positions, directions
+    /// and intervals of its samples (`bg_x`, `bg_dirs`, `bg_t`, `bg_dt`), then the field's
+    /// forward into `sc.bg` ([`super::background::BackgroundField::forward`]).
+    fn background_forward<T: Real>(
+        &self,
+        p: &Groups<T>,
+        ctx: &StepCtx,
+        c: &Chunk<T>,
+        sc: &mut Scratch<T>,
+    ) {
+        let (Some(field), Some(bs)) = (&self.background, ctx.bg_samples) else {
+            return;
+        };
+        sc.bg_x.clear();
+        sc.bg_dirs.clear();
+        sc.bg_t.clear();
+        sc.bg_dt.clear();
+        for r in c.r0..c.r1 {
+            let o = ctx.batch.origins[r];
+            let d = ctx.batch.dirs[r];
+            for s in bs.range(r) {
+                let t = bs.t[s] as f64;
+                sc.bg_x
+                    .push([0, 1, 2].map(|a| o[a] as f64 + d[a] as f64 * t));
+                sc.bg_dirs.push(d.map(T::from_f32));
+                sc.bg_t.push(T::from_f32(bs.t[s]));
+                sc.bg_dt.push(T::from_f32(bs.dt[s]));
+            }
+        }
+        field.forward(
+            p.bg_density,
+            p.bg_color,
+            &sc.bg_x,
+            &sc.bg_dirs,
+            &sc.bg_dt,
+            self.config.render.radius as f64,
+            &mut sc.bg,
+        );
     }
 
     /// The phases up to the colour of each sample, timed.
@@ -353,16 +414,32 @@ impl NeusModel {
         sc: &Scratch<f32>,
         out: &mut Vec<RayResult>,
     ) {
+        let k = ctx.bg_samples.map_or(0, |b| b.n_outside);
         for r in c.r0..c.r1 {
             let rg = ctx.samples.range(r);
             let (a, b) = (rg.start - c.s0, rg.end - c.s0);
-            let o = composite_forward(
-                &sc.alpha[a..b],
-                &sc.rgb[a..b],
-                &sc.ray_t[a..b],
-                &sc.normal[a..b],
-                c.bg,
-            );
+            let o = if ctx.bg_samples.is_some() {
+                let (ba, bb) = ((r - c.r0) * k, (r - c.r0 + 1) * k);
+                let fg = Layer {
+                    alpha: &sc.alpha[a..b],
+                    rgb: &sc.rgb[a..b],
+                    t: &sc.ray_t[a..b],
+                };
+                let bgl = Layer {
+                    alpha: &sc.bg.alpha[ba..bb],
+                    rgb: &sc.bg.rgb[ba..bb],
+                    t: &sc.bg_t[ba..bb],
+                };
+                composite_two_forward(fg, &sc.normal[a..b], bgl, c.bg).0
+            } else {
+                composite_forward(
+                    &sc.alpha[a..b],
+                    &sc.rgb[a..b],
+                    &sc.ray_t[a..b],
+                    &sc.normal[a..b],
+                    c.bg,
+                )
+            };
             out.push((
                 r,
                 o.rgb.map(|v| v.to_f32()),
@@ -390,6 +467,54 @@ impl NeusModel {
         let bgt = loss
             .background(self.config.render.background)
             .map(T::from_f32);
+        if let Some(bs) = ctx.bg_samples {
+            let k = bs.n_outside;
+            let nb = (c.r1 - c.r0) * k;
+            sc.bg.d_alpha.resize(nb, T::ZERO);
+            sc.bg.d_rgb.resize(nb, [T::ZERO; 3]);
+            for r in c.r0..c.r1 {
+                let rg = ctx.samples.range(r);
+                let (a, b) = (rg.start - c.s0, rg.end - c.s0);
+                let (ba, bb) = ((r - c.r0) * k, (r - c.r0 + 1) * k);
+                let fg = Layer {
+                    alpha: &sc.alpha[a..b],
+                    rgb: &sc.rgb[a..b],
+                    t: &sc.ray_t[a..b],
+                };
+                let bgl = Layer {
+                    alpha: &sc.bg.alpha[ba..bb],
+                    rgb: &sc.bg.rgb[ba..bb],
+                    t: &sc.bg_t[ba..bb],
+                };
+                let (o, c_bg) = composite_two_forward(fg, &sc.normal[a..b], bgl, bgt);
+                // Every ray has background samples: all rays are valid.
+                let (g_rgb, g_op) = loss.ray(
+                    &ctx.counts,
+                    r,
+                    o.rgb.map(|v| v.to_f64()),
+                    o.opacity.to_f64(),
+                    true,
+                    sums,
+                );
+                composite_two_backward(
+                    fg,
+                    bgl,
+                    bgt,
+                    c_bg,
+                    o.opacity,
+                    RayGrad {
+                        rgb: g_rgb.map(T::from_f64),
+                        opacity: T::from_f64(g_op),
+                        depth: T::ZERO,
+                    },
+                    &mut sc.d_alpha[a..b],
+                    &mut sc.d_rgb[a..b],
+                    &mut sc.bg.d_alpha[ba..bb],
+                    &mut sc.bg.d_rgb[ba..bb],
+                );
+            }
+            return;
+        }
         for r in c.r0..c.r1 {
             let rg = ctx.samples.range(r);
             let (a, b) = (rg.start - c.s0, rg.end - c.s0);

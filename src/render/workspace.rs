@@ -9,6 +9,7 @@
 //! `wh`, `wc` = last hidden width of the SDF and colour networks. All rows are row-major.
 
 use super::alpha::AlphaGrad;
+use super::background::BackgroundScratch;
 use crate::field::mlp::MlpTape;
 use crate::field::{ParamLayout, Real};
 
@@ -72,6 +73,9 @@ pub(super) struct GroupsMut<'a, T> {
     pub(super) color: &'a mut [T],
     pub(super) var: &'a mut [T],
     pub(super) app: &'a mut [T],
+    /// The background networks (empty without a learned background).
+    pub(super) bg_density: &'a mut [T],
+    pub(super) bg_color: &'a mut [T],
 }
 
 /// Read-only parameter views of each group.
@@ -81,6 +85,9 @@ pub(super) struct Groups<'a, T> {
     pub(super) color: &'a [T],
     pub(super) var: &'a [T],
     pub(super) app: &'a [T],
+    /// The background networks (empty without a learned background).
+    pub(super) bg_density: &'a [T],
+    pub(super) bg_color: &'a [T],
 }
 
 /// Per-shard buffers, reused across chunks (resized, never shrunk; a phase overwrites what it
@@ -140,6 +147,16 @@ pub(super) struct Scratch<T> {
     pub(super) d_encoding: Vec<T>,
     /// Work buffer of the MLP backward passes (no meaning between calls).
     pub(super) mlp_work: Vec<T>,
+    /// The learned background's buffers (unused without one; shapes in [`BackgroundScratch`]).
+    pub(super) bg: BackgroundScratch<T>,
+    /// `[nb][3]` background sample positions (normalised space, f64: the encoding is computed
+    /// in f64 and carries no gradient), `nb` = rays of the chunk × `n_outside`, ray after ray.
+    pub(super) bg_x: Vec<[f64; 3]>,
+    /// `[nb][3]` unit direction of each background sample's ray.
+    pub(super) bg_dirs: Vec<[T; 3]>,
+    /// `[nb]` background sample distances and `[nb]` interval lengths (normalised units).
+    pub(super) bg_t: Vec<T>,
+    pub(super) bg_dt: Vec<T>,
 }
 
 /// Rows of sample `i`'s centre (row `i`) and taps (rows `n + 6i + k`) in the `[7n][d]` buffers.
@@ -163,6 +180,16 @@ pub(super) const SDF_MLP: &str = "sdf_mlp";
 pub(super) const COLOR_MLP: &str = "color_mlp";
 pub(super) const VARIANCE: &str = "variance";
 pub(super) const APPEARANCE: &str = "appearance";
+/// The learned background's groups, after the five above and only when it is on.
+pub(super) const BG_DENSITY: &str = "bg_density";
+pub(super) const BG_COLOR: &str = "bg_color";
+
+/// The index range of an optional group (empty, at the end, when the layout lacks it).
+fn optional_group(layout: &ParamLayout, name: &str) -> std::ops::Range<usize> {
+    layout
+        .group(name)
+        .map_or(layout.total()..layout.total(), |g| g.range())
+}
 
 /// The flat index range of the group `name` (every model layout has all five groups).
 pub(super) fn group(layout: &ParamLayout, name: &str) -> std::ops::Range<usize> {
@@ -180,6 +207,8 @@ pub(super) fn split<'a, T>(layout: &ParamLayout, p: &'a [T]) -> Groups<'a, T> {
         color: &p[group(layout, COLOR_MLP)],
         var: &p[group(layout, VARIANCE)],
         app: &p[group(layout, APPEARANCE)],
+        bg_density: &p[optional_group(layout, BG_DENSITY)],
+        bg_color: &p[optional_group(layout, BG_COLOR)],
     }
 }
 
@@ -192,12 +221,16 @@ pub(super) fn split_mut<'a, T>(layout: &ParamLayout, p: &'a mut [T]) -> GroupsMu
     let (sdf, rest) = rest.split_at_mut(len(SDF_MLP));
     let (color, rest) = rest.split_at_mut(len(COLOR_MLP));
     let (var, rest) = rest.split_at_mut(len(VARIANCE));
-    let (app, _) = rest.split_at_mut(len(APPEARANCE));
+    let (app, rest) = rest.split_at_mut(len(APPEARANCE));
+    let (bg_density, rest) = rest.split_at_mut(optional_group(layout, BG_DENSITY).len());
+    let (bg_color, _) = rest.split_at_mut(optional_group(layout, BG_COLOR).len());
     GroupsMut {
         hash,
         sdf,
         color,
         var,
         app,
+        bg_density,
+        bg_color,
     }
 }

@@ -3,7 +3,8 @@
 //!
 //! Tensors (all little-endian):
 //! - `params.<group>`: f32, the group's shape (`hash_grid`, `sdf_mlp`, `color_mlp`, `variance`,
-//!   `appearance`; see [`crate::field::ParamLayout`]);
+//!   `appearance`, and `bg_density`, `bg_color` with a learned background; see
+//!   [`crate::field::ParamLayout`]);
 //! - `adam_m.<group>`, `adam_v.<group>`: f32, AdamW's moments, same shapes;
 //! - `occupancy.occ`: f32 `[r, r, r]`, `occupancy.binary`: u8 `[r, r, r]`.
 //!

@@ -61,6 +61,25 @@ pub fn tiny_config() -> ModelConfig {
             mask: 0.1.into(),
             ..Default::default()
         },
+        background: Default::default(),
+    }
+}
+
+/// [`tiny_config`] with a small learned background (issue 16): 6 samples beyond the box, 2
+/// frequencies, width-16 networks, 3 features.
+pub fn tiny_background_config() -> ModelConfig {
+    use neus_aug::render::{BackgroundConfig, BackgroundKind};
+    ModelConfig {
+        background: BackgroundConfig {
+            kind: BackgroundKind::Nerfpp,
+            n_outside: 6,
+            n_frequencies: 2,
+            n_neurons: 16,
+            n_hidden_layers: 1,
+            color_hidden_layers: 1,
+            feature_dim: 3,
+        },
+        ..tiny_config()
     }
 }
 
