@@ -421,14 +421,7 @@ impl RunConfig {
                 "must be finite and > 0",
             ));
         }
-        let l = &self.model.loss;
-        for (k, w) in [
-            ("rgb_l1", l.rgb_l1),
-            ("rgb_mse", l.rgb_mse),
-            ("eikonal", l.eikonal),
-            ("mask", l.mask),
-            ("curvature", l.curvature),
-        ] {
+        for (k, w) in self.model.loss.weights() {
             if let Err(why) = w.check() {
                 return Err(invalid(&format!("model.loss.{k}"), w, why));
             }

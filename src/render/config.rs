@@ -103,6 +103,20 @@ pub enum MaskBce {
     Squash,
 }
 
+impl LossConfig {
+    /// Every scheduled loss weight with its key under `model.loss`, in declaration order: the
+    /// one list that validation and the step-scaling of `study pareto` walk.
+    pub fn weights(&self) -> [(&'static str, Scheduled); 5] {
+        [
+            ("rgb_l1", self.rgb_l1),
+            ("rgb_mse", self.rgb_mse),
+            ("eikonal", self.eikonal),
+            ("mask", self.mask),
+            ("curvature", self.curvature),
+        ]
+    }
+}
+
 impl Default for LossConfig {
     fn default() -> Self {
         Self {

@@ -318,14 +318,7 @@ fn step_schedule_sets(base: &RunConfig, scale: &dyn Fn(u64) -> u64) -> Vec<Strin
             scale(p.update_steps).max(1),
         ));
     }
-    let l = &base.model.loss;
-    for (name, w) in [
-        ("rgb_l1", l.rgb_l1),
-        ("rgb_mse", l.rgb_mse),
-        ("eikonal", l.eikonal),
-        ("mask", l.mask),
-        ("curvature", l.curvature),
-    ] {
+    for (name, w) in base.model.loss.weights() {
         if let Scheduled::Linear(s0, a, b, s1) = w {
             let scaled = Scheduled::Linear(scale(s0), a, b, scale(s1));
             v.push(set(&format!("model.loss.{name}"), scaled));
