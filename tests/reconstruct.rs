@@ -284,6 +284,25 @@ fn negative_learning_rate_is_named() {
     );
 }
 
+/// The visual-hull init (issue 13) carves masks: without them it is refused by name, and a
+/// bad value of its section is named too.
+#[test]
+fn visual_hull_init_without_masks_or_with_bad_values_is_named() {
+    let hull = "train.init.kind=\"visual_hull\"";
+    fails_with(
+        "",
+        &["--set", hull, "--set", "data.masks=false"],
+        None,
+        &["train.init.kind", "data.masks"],
+    );
+    fails_with(
+        "",
+        &["--set", hull, "--set", "train.init.resolution=4"],
+        None,
+        &["train.init.resolution", "8..=512"],
+    );
+}
+
 #[test]
 fn output_folder_that_is_a_file_is_an_error() {
     let tmp = tempfile::tempdir().unwrap();

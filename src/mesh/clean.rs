@@ -203,7 +203,7 @@ pub fn mask_cull_filter(
 
 /// The pixel `(x, y)` whose square holds the projection of `x` (normalised space), `None` when
 /// the point is behind the camera or outside its image.
-fn pixel_of(cam: &Camera, x: &Vector3<f64>) -> Option<(usize, usize)> {
+pub(crate) fn pixel_of(cam: &Camera, x: &Vector3<f64>) -> Option<(usize, usize)> {
     let (u, v, _) = cam.project(x)?;
     (u >= 0.0 && v >= 0.0 && u < cam.width as f64 && v < cam.height as f64)
         .then(|| (u.floor() as usize, v.floor() as usize))

@@ -15,6 +15,7 @@ pub use super::preset::{delayed_curvature, Preset};
 
 use crate::augment::{AugMode, AugmentConfig, Degradation};
 use crate::render::ModelConfig;
+use crate::train::hull::InitKind;
 use crate::train::TrainConfig;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -299,6 +300,16 @@ impl RunConfig {
         }
         if t.iterations == 0 {
             return Err(invalid("train.iterations", 0, "must be at least 1"));
+        }
+        if let Some((key, value, why)) = t.init.invalid() {
+            return Err(invalid(key, value, why));
+        }
+        if t.init.kind == InitKind::VisualHull && !self.data.masks {
+            return Err(invalid(
+                "train.init.kind",
+                "\"visual_hull\"",
+                "carves the training masks, and data.masks is false",
+            ));
         }
         let lr = &t.lr;
         if !(lr.final_factor.is_finite() && lr.final_factor > 0.0) {

@@ -44,6 +44,7 @@ use crate::scene::{GrayImage, LoadOptions, RgbImage, Scene, SceneError};
 use crate::sim::{self, SimError};
 use crate::train::checkpoint::{self, CheckpointError, TrainState};
 use crate::train::data::{camera_rays, DataError};
+use crate::train::hull::{self, HullError, HullSdf, InitKind};
 use crate::train::metrics::{psnr, ssim};
 use crate::train::{TrainData, TrainError, Trainer};
 use serde::Serialize;
@@ -85,6 +86,8 @@ pub enum ReconstructError {
     Model(#[from] ModelError),
     #[error(transparent)]
     Train(#[from] TrainError),
+    #[error(transparent)]
+    Hull(#[from] HullError),
     #[error(transparent)]
     Checkpoint(#[from] CheckpointError),
     #[error("mesh extraction failed: {0}")]
@@ -383,7 +386,49 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             say(quiet, format!("resuming from step {}", s.step));
             s
         }
-        None => trainer.initial_state(),
+        None => {
+            let mut s = trainer.initial_state();
+            let views: Vec<(&crate::scene::Camera, &GrayImage)> = train_idx
+                .iter()
+                .filter_map(|&i| {
+                    let v = &scene.views[i];
+                    v.mask.as_ref().map(|m| (&v.camera, m))
+                })
+                .collect();
+            let all_masked = cfg.data.masks && views.len() == train_idx.len();
+            let hull_init = match cfg.train.init.kind {
+                InitKind::Sphere => false,
+                InitKind::Auto => all_masked,
+                InitKind::VisualHull if all_masked => true,
+                InitKind::VisualHull => {
+                    return Err(HullError::NoMasks("some training views have no mask").into())
+                }
+            };
+            if hull_init {
+                let t_hull = Instant::now();
+                let ic = &cfg.train.init;
+                let r = model.config.render.radius;
+                let inside = hull::carve(&views, r, ic.resolution);
+                let sdf = HullSdf::from_occupancy(&inside, ic.resolution, r)?;
+                let active = model.config.schedule(0).active_levels;
+                let rep = hull::fit(&model, &mut s.params, &sdf, ic, active, cfg.seed)?;
+                let mm = scene.normalization.scale;
+                say(
+                    quiet,
+                    format!(
+                        "visual hull: {:.1} % of the {}³ grid inside; SDF fit {} steps, mean \
+                         |error| {:.2} → {:.2} mm, {:.1} s",
+                        100.0 * rep.inside_share,
+                        ic.resolution,
+                        ic.steps,
+                        rep.l1_first * mm,
+                        rep.l1_last * mm,
+                        t_hull.elapsed().as_secs_f64()
+                    ),
+                );
+            }
+            s
+        }
     };
     let resumed_from = (state.step > 0).then_some(state.step);
     let iters = cfg.train.iterations;

@@ -19,6 +19,7 @@ pub mod occupancy;
 pub mod ray_loss;
 pub mod rays;
 pub mod schedule;
+mod sdf_fit;
 mod step;
 mod workspace;
 

@@ -6,6 +6,7 @@
 pub mod adam;
 pub mod checkpoint;
 pub mod data;
+pub mod hull;
 pub mod loss;
 pub mod metrics;
 pub mod schedule;

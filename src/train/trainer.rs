@@ -5,6 +5,7 @@
 use super::adam::{AdamW, AdamWConfig, OptimError};
 use super::checkpoint::TrainState;
 use super::data::{Batch, TrainData};
+use super::hull::InitConfig;
 use super::loss::{StepOutput, Targets, TrainStep};
 use super::schedule::LrSchedule;
 use crate::render::model::{ModelError, NeusModel, RayBatch};
@@ -26,6 +27,9 @@ pub struct TrainConfig {
     pub checkpoint_every: u64,
     /// Consecutive steps the NaN guard may skip before the run stops as diverged.
     pub max_consecutive_skips: u32,
+    /// How the SDF starts (`[train.init]`; the sphere init by default, see [`super::hull`]).
+    #[serde(skip_serializing_if = "InitConfig::is_default")]
+    pub init: InitConfig,
 }
 
 impl Default for TrainConfig {
@@ -36,6 +40,7 @@ impl Default for TrainConfig {
             lr: LrSchedule::default(),
             checkpoint_every: 1000,
             max_consecutive_skips: 20,
+            init: InitConfig::default(),
         }
     }
 }

@@ -38,6 +38,10 @@ checkpoint_every = 4
 [train.lr]
 warmup_steps = 0
 constant_steps = {half}
+[train.init]
+resolution = 24
+steps = 40
+points = 1024
 [model.field.hash_grid]
 n_levels = 6
 log2_hashmap_size = 12
