@@ -61,6 +61,18 @@ fn progressive_levels_gradient_matches_central_differences() {
     check_full_gradient(cfg);
 }
 
+/// Central difference (step 1e-6) of `loss` in parameter `i` of `p` (restored afterwards).
+fn central_difference(p: &mut [f64], i: usize, loss: impl Fn(&[f64]) -> f64) -> f64 {
+    let h = 1e-6;
+    let old = p[i];
+    p[i] = old + h;
+    let lp = loss(p);
+    p[i] = old - h;
+    let lm = loss(p);
+    p[i] = old;
+    (lp - lm) / (2.0 * h)
+}
+
 fn check_full_gradient(cfg: neus_aug::render::ModelConfig) -> neus_aug::train::StepOutput {
     let model = NeusModel::new(cfg).unwrap();
     let s = seed();
@@ -97,14 +109,7 @@ fn check_full_gradient(cfg: neus_aug::render::ModelConfig) -> neus_aug::train::S
         idx.dedup();
         let mut n_nonzero = 0;
         for i in idx {
-            let h = 1e-6;
-            let old = p[i];
-            p[i] = old + h;
-            let lp = loss(&p);
-            p[i] = old - h;
-            let lm = loss(&p);
-            p[i] = old;
-            let fd = (lp - lm) / (2.0 * h);
+            let fd = central_difference(&mut p, i, loss);
             let an = grads[i];
             if an != 0.0 {
                 n_nonzero += 1;
@@ -214,14 +219,7 @@ fn sdf_fit_gradient_matches_central_differences() {
         let mut idx: Vec<usize> = (0..8).map(|_| rng.random_range(r.clone())).collect();
         idx.extend((0..16.min(nonzero.len())).map(|_| nonzero[rng.random_range(0..nonzero.len())]));
         for i in idx {
-            let h = 1e-6;
-            let old = p[i];
-            p[i] = old + h;
-            let lp = loss(&p);
-            p[i] = old - h;
-            let lm = loss(&p);
-            p[i] = old;
-            let fd = (lp - lm) / (2.0 * h);
+            let fd = central_difference(&mut p, i, loss);
             if (fd - grads[i]).abs() > 1e-8 + 1e-5 * fd.abs().max(grads[i].abs()) {
                 fails.push(format!(
                     "{}[{}]: analytic {:e} fd {fd:e}",

@@ -372,6 +372,16 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         write_atomic(&config_path, &config_toml)?;
     }
 
+    // The training views that have a mask, with their cameras: the visual-hull start carves
+    // them, the mesh clean-up culls with them.
+    let masked_views: Vec<(&crate::scene::Camera, &GrayImage)> = train_idx
+        .iter()
+        .filter_map(|&i| {
+            let v = &scene.views[i];
+            v.mask.as_ref().map(|m| (&v.camera, m))
+        })
+        .collect();
+
     // Training.
     let t = Instant::now();
     let mut trainer = Trainer::new(
@@ -388,14 +398,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         }
         None => {
             let mut s = trainer.initial_state();
-            let views: Vec<(&crate::scene::Camera, &GrayImage)> = train_idx
-                .iter()
-                .filter_map(|&i| {
-                    let v = &scene.views[i];
-                    v.mask.as_ref().map(|m| (&v.camera, m))
-                })
-                .collect();
-            let all_masked = cfg.data.masks && views.len() == train_idx.len();
+            let all_masked = cfg.data.masks && masked_views.len() == train_idx.len();
             let hull_init = match cfg.train.init.kind {
                 InitKind::Sphere => false,
                 InitKind::Auto => all_masked,
@@ -408,7 +411,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 let t_hull = Instant::now();
                 let ic = &cfg.train.init;
                 let r = model.config.render.radius;
-                let inside = hull::carve(&views, r, ic.resolution);
+                let inside = hull::carve(&masked_views, r, ic.resolution);
                 let sdf = HullSdf::from_occupancy(&inside, ic.resolution, r)?;
                 let active = model.config.schedule(0).active_levels;
                 let rep = hull::fit(&model, &mut s.params, &sdf, ic, active, cfg.seed)?;
@@ -513,18 +516,11 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let raw = two.mesh;
     let topo_raw = TopologyReport::of(&raw);
     let (mut mesh, clean) = if cfg.mesh.clean {
-        let views: Vec<(&crate::scene::Camera, &GrayImage)> = train_idx
-            .iter()
-            .filter_map(|&i| {
-                let v = &scene.views[i];
-                v.mask.as_ref().map(|m| (&v.camera, m))
-            })
-            .collect();
         let cameras: Vec<&crate::scene::Camera> =
             train_idx.iter().map(|&i| &scene.views[i].camera).collect();
         let (m, rep) = clean_mesh(
             &raw,
-            &views,
+            &masked_views,
             &cameras,
             &CleanOptions {
                 min_area_share: cfg.mesh.clean_min_area_share,
