@@ -208,6 +208,8 @@ fn reconstruct_without_masks_with_the_background() {
         "{m}"
     );
     assert!(m["psnr_heldout"].as_f64().unwrap().is_finite(), "{m}");
+    // Without masks the tiny config's `auto` start falls back to the sphere init.
+    assert!(m["train"]["hull_init"].is_null(), "{m}");
     assert!(out.join("mesh.ply").is_file());
     // The resolved config records the background; the checkpoint holds its two groups.
     let resolved = std::fs::read_to_string(out.join("config.toml")).unwrap();

@@ -69,6 +69,14 @@ fn same_seed_gives_the_same_mesh_and_all_outputs_exist() {
     let m: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(a.join("metrics.json")).unwrap()).unwrap();
     assert_eq!(m["train"]["iterations"], 24);
+    // The tiny config's `auto` start on a scene with masks: the visual hull, fitted.
+    let hull = &m["train"]["hull_init"];
+    assert_eq!(hull["resolution"], 24, "{m}");
+    let (first, last) = (
+        hull["fit_error_first_mm"].as_f64().unwrap(),
+        hull["fit_error_last_mm"].as_f64().unwrap(),
+    );
+    assert!(last.is_finite() && last < first, "{hull}");
     assert!(
         m["chamfer"]["chamfer_sum"].as_f64().unwrap().is_finite(),
         "{m}"

@@ -82,6 +82,25 @@ pub struct TrainSummary {
     pub train_views: usize,
     #[serde(default)]
     pub heldout_views: Vec<usize>,
+    /// The visual-hull start, when the run had one (`train.init`); `null` for the sphere init
+    /// and for resumed runs (the start happened in the first process).
+    #[serde(default)]
+    pub hull_init: Option<HullInitSummary>,
+}
+
+/// What the visual-hull start did (`train::hull`), in world millimetres.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(default)]
+pub struct HullInitSummary {
+    /// Voxels per axis of the hull grid.
+    pub resolution: usize,
+    /// Share of the grid inside the hull.
+    pub inside_share: f64,
+    /// Mean |SDF − hull distance| over the first and last fit steps' points (mm).
+    pub fit_error_first_mm: f64,
+    pub fit_error_last_mm: f64,
+    /// Wall time of carving and fit (s).
+    pub seconds: f64,
 }
 
 /// Mesh summary.

@@ -31,7 +31,9 @@ pub use config::{
     Preset, RunConfig,
 };
 pub use lock::{LockError, RunLock, LOCK_FILE};
-pub use metrics::{ChamferMetrics, MeshSummary, Metrics, Timings, TrainSummary, ViewMetrics};
+pub use metrics::{
+    ChamferMetrics, HullInitSummary, MeshSummary, Metrics, Timings, TrainSummary, ViewMetrics,
+};
 pub use output::output_dir;
 use output::{check_output, remove_if_present};
 use truth::{find_gt, GeometryVsTruth};
@@ -391,6 +393,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         cfg.seed,
         cfg.augment.seed ^ cfg.seed,
     );
+    let mut hull_init = None;
     let mut state: TrainState = match resumed {
         Some(s) => {
             say(quiet, format!("resuming from step {}", s.step));
@@ -399,7 +402,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         None => {
             let mut s = trainer.initial_state();
             let all_masked = cfg.data.masks && masked_views.len() == train_idx.len();
-            let hull_init = match cfg.train.init.kind {
+            let use_hull = match cfg.train.init.kind {
                 InitKind::Sphere => false,
                 InitKind::Auto => all_masked,
                 InitKind::VisualHull if all_masked => true,
@@ -407,7 +410,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                     return Err(HullError::NoMasks("some training views have no mask").into())
                 }
             };
-            if hull_init {
+            if use_hull {
                 let t_hull = Instant::now();
                 let ic = &cfg.train.init;
                 let r = model.config.render.radius;
@@ -416,19 +419,27 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 let active = model.config.schedule(0).active_levels;
                 let rep = hull::fit(&model, &mut s.params, &sdf, ic, active, cfg.seed)?;
                 let mm = scene.normalization.scale;
+                let h = HullInitSummary {
+                    resolution: ic.resolution,
+                    inside_share: rep.inside_share,
+                    fit_error_first_mm: rep.l1_first * mm,
+                    fit_error_last_mm: rep.l1_last * mm,
+                    seconds: t_hull.elapsed().as_secs_f64(),
+                };
                 say(
                     quiet,
                     format!(
                         "visual hull: {:.1} % of the {}³ grid inside; SDF fit {} steps, mean \
                          |error| {:.2} → {:.2} mm, {:.1} s",
-                        100.0 * rep.inside_share,
-                        ic.resolution,
+                        100.0 * h.inside_share,
+                        h.resolution,
                         ic.steps,
-                        rep.l1_first * mm,
-                        rep.l1_last * mm,
-                        t_hull.elapsed().as_secs_f64()
+                        h.fit_error_first_mm,
+                        h.fit_error_last_mm,
+                        h.seconds
                     ),
                 );
+                hull_init = Some(h);
             }
             s
         }
@@ -488,6 +499,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         samples_per_second: samples as f64 / train_secs.max(1e-9),
         train_views: train_idx.len(),
         heldout_views: heldout.clone(),
+        hull_init,
     };
     say(
         quiet,

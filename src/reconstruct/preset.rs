@@ -5,7 +5,6 @@ use super::config::{DataConfig, EvalConfig, MeshConfig, RunConfig};
 use crate::augment::AugmentConfig;
 use crate::field::config::ProgressiveConfig;
 use crate::render::{ModelConfig, Scheduled};
-use crate::train::hull::InitKind;
 use crate::train::TrainConfig;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -105,11 +104,6 @@ impl Preset {
             }
         }
         model.loss.curvature = delayed_curvature(train.iterations);
-        if self != Preset::Paper {
-            // Issue 13: start the SDF from the masks' visual hull where the run has masks
-            // (`train::hull`); `paper` keeps the references' sphere init.
-            train.init.kind = InitKind::Auto;
-        }
         RunConfig {
             preset: self,
             scene: String::new(),

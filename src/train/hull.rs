@@ -48,7 +48,7 @@ pub enum InitKind {
     /// error without masks.
     VisualHull,
     /// `VisualHull` when the run trains with masks and every training view has one, else
-    /// `Sphere` (what the `fast` and `default` presets use).
+    /// `Sphere` (for scripts that run the same configuration on scenes with and without masks).
     Auto,
 }
 

@@ -24,7 +24,8 @@ pub fn scene() -> &'static Path {
 }
 
 /// A configuration of `iterations` steps of a tiny network (checkpoint every 4 steps, learning
-/// rate constant for the first half, a 32³ mesh), followed by `extra` TOML.
+/// rate constant for the first half, a 32³ mesh, the visual-hull start on a 24³ grid wherever the
+/// run has masks), followed by `extra` TOML.
 pub fn config(iterations: u64, extra: &str) -> String {
     format!(
         r#"
@@ -39,6 +40,7 @@ checkpoint_every = 4
 warmup_steps = 0
 constant_steps = {half}
 [train.init]
+kind = "auto"
 resolution = 24
 steps = 40
 points = 1024
