@@ -415,7 +415,8 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 let ic = &cfg.train.init;
                 let r = model.config.render.radius;
                 let inside = hull::carve(&masked_views, r, ic.resolution);
-                let sdf = HullSdf::from_occupancy(&inside, ic.resolution, r)?;
+                let sdf =
+                    HullSdf::from_occupancy(&inside, ic.resolution, r)?.smoothed(ic.smooth_voxels);
                 let active = model.config.schedule(0).active_levels;
                 let rep = hull::fit(&model, &mut s.params, &sdf, ic, active, cfg.seed)?;
                 let mm = scene.normalization.scale;
