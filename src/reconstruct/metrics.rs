@@ -99,7 +99,7 @@ pub struct HullInitSummary {
     /// Mean |SDF − hull distance| over the first and last fit steps' points (mm).
     pub fit_error_first_mm: f64,
     pub fit_error_last_mm: f64,
-    /// Wall time of carving and fit (s).
+    /// Wall time of the fit (s; the carving counts in `timings_s.prepare`).
     pub seconds: f64,
 }
 

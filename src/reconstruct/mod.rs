@@ -332,6 +332,32 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let sampler = AugSampler::new(images, &cfg.augment)?;
     let data = TrainData::new(&cameras, sampler, masks, cfg.model.render.background)?;
     let model = NeusModel::new(cfg.model.clone())?;
+
+    // The training views that have a mask, with their cameras: the visual-hull start carves
+    // them, the mesh clean-up culls with them.
+    let masked_views: Vec<(&crate::scene::Camera, &GrayImage)> = train_idx
+        .iter()
+        .filter_map(|&i| {
+            let v = &scene.views[i];
+            v.mask.as_ref().map(|m| (&v.camera, m))
+        })
+        .collect();
+
+    // The visual-hull target, before anything is written: a hull the masks carve away entirely
+    // is an input error, and `--force` must not have removed the old outputs for it.
+    let all_masked = cfg.data.masks && masked_views.len() == train_idx.len();
+    let hull_target = match cfg.train.init.kind {
+        InitKind::Sphere => None,
+        InitKind::Auto if !all_masked => None,
+        InitKind::VisualHull if !all_masked => {
+            return Err(HullError::NoMasks("some training views have no mask").into())
+        }
+        InitKind::Auto | InitKind::VisualHull => {
+            let (ic, r) = (&cfg.train.init, model.config.render.radius);
+            let inside = hull::carve(&masked_views, r, ic.resolution);
+            Some(HullSdf::from_occupancy(&inside, ic.resolution, r)?.smoothed(ic.smooth_voxels))
+        }
+    };
     timings.prepare = t.elapsed().as_secs_f64();
 
     // The output folder: lock it, look again (another process may have finished a run there
@@ -374,16 +400,6 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         write_atomic(&config_path, &config_toml)?;
     }
 
-    // The training views that have a mask, with their cameras: the visual-hull start carves
-    // them, the mesh clean-up culls with them.
-    let masked_views: Vec<(&crate::scene::Camera, &GrayImage)> = train_idx
-        .iter()
-        .filter_map(|&i| {
-            let v = &scene.views[i];
-            v.mask.as_ref().map(|m| (&v.camera, m))
-        })
-        .collect();
-
     // Training.
     let t = Instant::now();
     let mut trainer = Trainer::new(
@@ -401,24 +417,11 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         }
         None => {
             let mut s = trainer.initial_state();
-            let all_masked = cfg.data.masks && masked_views.len() == train_idx.len();
-            let use_hull = match cfg.train.init.kind {
-                InitKind::Sphere => false,
-                InitKind::Auto => all_masked,
-                InitKind::VisualHull if all_masked => true,
-                InitKind::VisualHull => {
-                    return Err(HullError::NoMasks("some training views have no mask").into())
-                }
-            };
-            if use_hull {
+            if let Some(sdf) = &hull_target {
                 let t_hull = Instant::now();
                 let ic = &cfg.train.init;
-                let r = model.config.render.radius;
-                let inside = hull::carve(&masked_views, r, ic.resolution);
-                let sdf =
-                    HullSdf::from_occupancy(&inside, ic.resolution, r)?.smoothed(ic.smooth_voxels);
                 let active = model.config.schedule(0).active_levels;
-                let rep = hull::fit(&model, &mut s.params, &sdf, ic, active, cfg.seed)?;
+                let rep = hull::fit(&model, &mut s.params, sdf, ic, active, cfg.seed)?;
                 let mm = scene.normalization.scale;
                 let h = HullInitSummary {
                     resolution: ic.resolution,

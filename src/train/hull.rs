@@ -231,15 +231,11 @@ fn edt_1d(f: &[f64], d: &mut [f64], v: &mut [usize], z: &mut [f64]) {
 /// "No feature" in the distance transforms: far beyond any squared distance in a grid.
 const FAR: f64 = 1e20;
 
-/// Squared distance (in voxels²) from each voxel centre of a `res³` grid to the nearest voxel
-/// with `feature` set; [`FAR`] where there is none. Separable: lines along x, then y, then z.
-pub fn squared_distance_to(feature: &[bool], res: usize) -> Vec<f64> {
-    assert_eq!(feature.len(), res * res * res);
-    let mut g: Vec<f64> = feature.iter().map(|&b| if b { 0.0 } else { FAR }).collect();
-    let mut line = vec![0f64; res];
-    let mut out = vec![0f64; res];
-    let mut v = vec![0usize; res];
-    let mut z = vec![0f64; res + 1];
+/// Runs `f(line, out)` on every line of a `res³` grid (index `(k·res + j)·res + i`) along x,
+/// then y, then z, writing `out` back in place of the line: the passes of a separable filter.
+fn along_every_axis<T: Copy + Default>(g: &mut [T], res: usize, mut f: impl FnMut(&[T], &mut [T])) {
+    let mut line = vec![T::default(); res];
+    let mut out = vec![T::default(); res];
     for stride in [1, res, res * res] {
         for base in 0..res * res {
             // The line's first voxel: `base` enumerates the other two coordinates.
@@ -251,12 +247,27 @@ pub fn squared_distance_to(feature: &[bool], res: usize) -> Vec<f64> {
             for (t, l) in line.iter_mut().enumerate() {
                 *l = g[start + t * stride];
             }
-            edt_1d(&line, &mut out, &mut v, &mut z);
+            f(&line, &mut out);
             for (t, o) in out.iter().enumerate() {
-                g[start + t * stride] = o.min(FAR);
+                g[start + t * stride] = *o;
             }
         }
     }
+}
+
+/// Squared distance (in voxels²) from each voxel centre of a `res³` grid to the nearest voxel
+/// with `feature` set; [`FAR`] where there is none. Separable: lines along x, then y, then z.
+pub fn squared_distance_to(feature: &[bool], res: usize) -> Vec<f64> {
+    assert_eq!(feature.len(), res * res * res);
+    let mut g: Vec<f64> = feature.iter().map(|&b| if b { 0.0 } else { FAR }).collect();
+    let mut v = vec![0usize; res];
+    let mut z = vec![0f64; res + 1];
+    along_every_axis(&mut g, res, |line, out| {
+        edt_1d(line, out, &mut v, &mut z);
+        for o in out.iter_mut() {
+            *o = o.min(FAR);
+        }
+    });
     g
 }
 
@@ -309,41 +320,30 @@ impl HullSdf {
     /// The values blurred by a separable Gaussian of standard deviation `sigma` voxels (kernel
     /// radius `⌈3σ⌉`, edges clamped); `sigma = 0` returns a copy.
     pub fn smoothed(&self, sigma: f32) -> Self {
-        let n = self.res;
-        let mut v = self.values.clone();
         if sigma <= 0.0 {
             return self.clone();
         }
+        let n = self.res as isize;
         let rad = (3.0 * sigma).ceil() as isize;
         let w: Vec<f32> = (-rad..=rad)
             .map(|k| (-0.5 * (k as f32 / sigma).powi(2)).exp())
             .collect();
         let sum: f32 = w.iter().sum();
-        let w: Vec<f32> = w.iter().map(|x| x / sum).collect();
-        let mut line = vec![0f32; n];
-        for stride in [1, n, n * n] {
-            for base in 0..n * n {
-                let start = match stride {
-                    1 => base * n,
-                    s if s == n => (base / n) * n * n + base % n,
-                    _ => base,
-                };
-                for (t, l) in line.iter_mut().enumerate() {
-                    *l = v[start + t * stride];
+        let mut values = self.values.clone();
+        along_every_axis(&mut values, self.res, |line, out| {
+            for (t, o) in out.iter_mut().enumerate() {
+                let mut acc = 0f32;
+                for (k, wk) in w.iter().enumerate() {
+                    let u = (t as isize + k as isize - rad).clamp(0, n - 1);
+                    acc += wk * line[u as usize];
                 }
-                for t in 0..n {
-                    let mut acc = 0f32;
-                    for (k, wk) in w.iter().enumerate() {
-                        let u = (t as isize + k as isize - rad).clamp(0, n as isize - 1);
-                        acc += wk * line[u as usize];
-                    }
-                    v[start + t * stride] = acc;
-                }
+                *o = acc / sum;
             }
-        }
+        });
         Self {
-            values: v,
-            ..self.clone()
+            res: self.res,
+            radius: self.radius,
+            values,
         }
     }
 
