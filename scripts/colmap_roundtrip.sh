@@ -10,8 +10,10 @@
 #      fixed (a calibrated rig, as DTU's), so only the poses come from COLMAP;
 #   3. convert that binary model to text and import both with `neus-aug import colmap` (masks
 #      passed): the two scenes must be identical byte for byte. The region of interest (the
-#      sphere NeuS reconstructs in) comes from `--roi-from points` (default, the importer's: from
-#      the sparse points, which here cover the side the cameras see, so the sphere leaves out part
+#      sphere NeuS reconstructs in) comes from `--roi-from auto` (default, the importer's: the
+#      point nearest every optical axis when the cameras orbit the sparse points, with a radius
+#      kept near the points; see `roi_auto` in src/import/mod.rs), `--roi-from points` (from the
+#      sparse points, which here cover the side the cameras see, so the sphere leaves out part
 #      of the side facing away from them; the summary says how much) or `--roi-from cameras` (the
 #      point nearest every optical axis, the largest sphere every camera sees whole);
 #   4. reconstruct the COLMAP-posed scene and the true-camera scene with the same preset, seed and
@@ -27,11 +29,20 @@
 #      residual, the Chamfer sums and the ratio COLMAP / true against the acceptance bound 1.3
 #      (judged on the centres alignment, issue 16's definition; the poses one printed beside).
 #
-#   scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S] [--iterations N]
-#                                       [--intrinsics estimate|known] [--roi-from points|cameras]
-#                                       [--min-registered K] [--bound B]
+#   scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P | --config FILE] [--seed S]
+#                                       [--iterations N] [--intrinsics estimate|known]
+#                                       [--roi-from auto|points|cameras] [--min-registered K]
+#                                       [--bound B]
+#                                       [--views N] [--resolution WxH] [--spp N] [--gt-spacing MM]
 #   scripts/colmap_roundtrip.sh /tmp/rt                       # blob, fast preset, seed 0
 #   scripts/colmap_roundtrip.sh /tmp/rt --iterations 800      # cheaper proof run
+#   scripts/colmap_roundtrip.sh /tmp/rt --views 16 --spp 1 --gt-spacing 1 --config tiny.toml \
+#       --intrinsics known                                    # the tiny version tests/ runs
+#
+# `--views`, `--resolution`, `--spp` and `--gt-spacing` are passed to `neus-aug synth`; `--config`
+# replaces the preset with a configuration file for both reconstructions. Besides the printed
+# summary, WORKDIR/summary<variant>.json holds the same figures (`tests/colmap_roundtrip.rs`
+# reads it).
 #
 # WORKDIR keeps every step's output (true/, colmap[-known]/, scene_{bin,txt}[-known]-ROI/,
 # runs/{true,colmap[-known]-ROI}/, logs/); a step whose output is already complete is not redone,
@@ -49,7 +60,7 @@ set -euo pipefail
 
 usage() {
   echo "usage: scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S]" \
-    "[--iterations N] [--intrinsics estimate|known] [--roi-from points|cameras]" \
+    "[--iterations N] [--intrinsics estimate|known] [--roi-from auto|points|cameras]" \
     "[--min-registered K] [--bound B]" \
     "(details: the comment at its top)" >&2
   exit 1
@@ -62,19 +73,24 @@ preset=fast
 seed=0
 iterations=""
 min_registered=""
+config=""
+synth_args=()
 bound=1.3
 intrinsics=estimate
-roi_from=points
+roi_from=auto
 while [ $# -gt 0 ]; do
   case "$1" in
     --scene) scene=${2:?--scene needs a name}; shift 2 ;;
     --preset) preset=${2:?--preset needs a name}; shift 2 ;;
+    --config) config=${2:?--config needs a file}; shift 2 ;;
+    --views|--resolution|--spp|--gt-spacing)
+      synth_args+=("$1" "${2:?$1 needs a value}"); shift 2 ;;
     --seed) seed=${2:?--seed needs a number}; shift 2 ;;
     --iterations) iterations=${2:?--iterations needs a number}; shift 2 ;;
     --min-registered) min_registered=${2:?--min-registered needs a number}; shift 2 ;;
     --bound) bound=${2:?--bound needs a number}; shift 2 ;;
     --intrinsics) intrinsics=${2:?--intrinsics needs estimate or known}; shift 2 ;;
-    --roi-from) roi_from=${2:?--roi-from needs cameras or points}; shift 2 ;;
+    --roi-from) roi_from=${2:?--roi-from needs auto, cameras or points}; shift 2 ;;
     -h|--help) usage ;;
     -*) echo "unknown option $1" >&2; usage ;;
     *) [ -z "$work" ] || { echo "one WORKDIR only (got '$work' and '$1')" >&2; usage; }; work=$1; shift ;;
@@ -87,13 +103,19 @@ case "$intrinsics" in
   *) echo "--intrinsics is 'estimate' or 'known', not '$intrinsics'" >&2; usage ;;
 esac
 case "$roi_from" in
-  cameras|points) stag="$tag-$roi_from" ;;   # names of what depends on the region of interest
-  *) echo "--roi-from is 'cameras' or 'points', not '$roi_from'" >&2; usage ;;
+  auto|cameras|points) stag="$tag-$roi_from" ;;   # names of what depends on the region of interest
+  *) echo "--roi-from is 'auto', 'cameras' or 'points', not '$roi_from'" >&2; usage ;;
 esac
+if [ -n "$config" ]; then
+  [ -f "$config" ] || die "--config $config: no such file"
+  config=$(cd "$(dirname "$config")" && pwd)/$(basename "$config")
+  preset="config:$(sha256sum "$config" | cut -c1-16)"
+fi
 mkdir -p "$work/logs"
 work=$(cd "$work" && pwd)
 # Cached outputs are only valid for the parameters they were made with.
 params="scene=$scene preset=$preset seed=$seed iterations=${iterations:-preset}"
+[ ${#synth_args[@]} -eq 0 ] || params="$params synth=${synth_args[*]}"
 if [ -f "$work/params" ]; then
   [ "$(cat "$work/params")" = "$params" ] \
     || die "$work was made with '$(cat "$work/params")', not '$params': use another WORKDIR"
@@ -141,7 +163,7 @@ json() { python3 -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)"
 true_scene="$work/true"
 if [ ! -f "$true_scene/meta.json" ]; then
   rm -rf "$true_scene"
-  step synth "$bin" synth "$scene" --out "$true_scene" --quiet
+  step synth "$bin" synth "$scene" "${synth_args[@]}" --out "$true_scene" --quiet
   grep -E '^(wrote|floor)' "$work/logs/synth.log" >&2 || true
 fi
 scan=$(json "$true_scene/meta.json" 'd["scan"]')
@@ -234,7 +256,8 @@ echo "   binary and text models import to identical scenes" >&2
   || die "inspect of the true scene failed: $work/logs/inspect-true.log"
 
 # --- 4. reconstruct both -----------------------------------------------------------------------
-rec_args=(--preset "$preset" --seed "$seed" --quiet)
+rec_args=(--seed "$seed" --quiet)
+if [ -n "$config" ]; then rec_args+=(--config "$config"); else rec_args+=(--preset "$preset"); fi
 [ -n "$iterations" ] && rec_args+=(--iterations "$iterations")
 for run in true "colmap$stag"; do
   src="$true_scene"; [ "$run" = true ] || src="$sb"
@@ -294,5 +317,17 @@ print(f"ratio COLMAP / true    {ratio:.3f} (bound {bound}: {'within' if ratio <=
 print(f"  aligned by the poses {cp:.3f} mm (accuracy {ep['mean_d2s']:.3f}, completeness "
       f"{ep['mean_s2d']:.3f}), ratio {cp / ct:.3f}")
 print(f"wall time              {wall} s (this invocation)")
+summary = {
+    "scene": scene, "preset": preset, "seed": int(seed), "iterations": iters,
+    "intrinsics": intr, "roi_from": roi, "registered": int(reg), "views": int(n),
+    "fx_colmap": float(fxc), "fx_true": float(fxt),
+    "centre_residual_rms_mm": a["residual_rms"], "centre_residual_max_mm": a["residual_max"],
+    "gt_outside_roi": a.get("gt_outside_roi"),
+    "chamfer_true_mm": ct, "chamfer_colmap_mm": cc, "chamfer_colmap_poses_mm": cp,
+    "ratio": ratio, "ratio_poses": cp / ct, "bound": bound, "within_bound": ratio <= bound,
+    "wall_s": int(wall),
+}
+with open(f"{work}/summary{stag}.json", "w") as f:
+    json.dump(summary, f, indent=2)
 sys.exit(0 if ratio <= bound else 2)
 PY

@@ -315,6 +315,8 @@ fn cli_synth_export_then_import_both_formats() {
         synth.join("image").to_str().unwrap(),
         "--masks",
         synth.join("mask").to_str().unwrap(),
+        "--roi-from",
+        "points",
         "--out",
         a.to_str().unwrap(),
     ]);
@@ -382,6 +384,26 @@ fn cli_synth_export_then_import_both_formats() {
         inspect.contains("from the layout of 6 cameras"),
         "{inspect}"
     );
+    // The default, `--roi-from auto`: the simulator's rig orbits the object, so the centre is
+    // the camera layout's, and the radius at most its.
+    let e = tmp.path().join("e");
+    run(&[
+        "import",
+        "colmap",
+        synth.join("colmap/sparse/0").to_str().unwrap(),
+        "--images",
+        synth.join("image").to_str().unwrap(),
+        "--out",
+        e.to_str().unwrap(),
+    ]);
+    let ne = load(&e).normalization;
+    let centre_gap = (Vector3::from(ne.center) - Vector3::from(nc.center)).norm();
+    assert!(
+        centre_gap <= 1e-9 * nc.scale && ne.scale <= nc.scale * (1.0 + 1e-12),
+        "auto {ne:?} against cameras {nc:?}"
+    );
+    let inspect = run(&["inspect", e.to_str().unwrap()]);
+    assert!(inspect.contains("auto, an orbit of 6 cameras"), "{inspect}");
     // A bad flag value is refused with its name.
     let out = common::tiny::neus_aug()
         .args([

@@ -59,11 +59,13 @@ pub enum ImportSource {
         out: PathBuf,
         #[command(flatten)]
         roi: RoiArgs,
-        /// What the automatic region of interest comes from: `points` (the sparse points seen by
-        /// three images or more) or `cameras` (the point nearest every optical axis, and the largest
-        /// sphere about it every camera sees whole: for captures orbiting an object, whose
-        /// sparse points may cover only the side the cameras see best).
-        #[arg(long, value_enum, default_value_t = colmap::RoiSource::Points)]
+        /// What the automatic region of interest comes from: `auto` (the default: `cameras` when
+        /// the capture orbits the sparse points, with the radius kept near the points, else
+        /// `points`), `points` (the sparse points seen by three images or more) or `cameras` (the
+        /// point nearest every optical axis, and the largest sphere about it every camera sees
+        /// whole: for captures orbiting an object, whose sparse points may cover only the side
+        /// the cameras see best). `inspect` and import.json say what was chosen.
+        #[arg(long, value_enum, default_value_t = colmap::RoiSource::Auto)]
         roi_from: colmap::RoiSource,
     },
     /// An instant-ngp / nerfstudio transforms.json (OpenGL camera-to-world poses; fl_x/fl_y/cx/cy

@@ -30,7 +30,8 @@
 use super::colmap_binary;
 pub use super::colmap_binary::write_binary;
 use super::{
-    find_mask, io_err, roi_from_cameras, roi_from_points, ImportError, ImportedView, Roi, RoiChoice,
+    find_mask, io_err, roi_auto, roi_from_cameras, roi_from_points, ImportError, ImportedView, Roi,
+    RoiChoice,
 };
 use crate::scene::Camera;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
@@ -480,9 +481,12 @@ pub fn quaternion(r: &Matrix3<f64>) -> [f64; 4] {
 /// What the automatic region of interest of [`import`] is computed from (`--roi-from`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum RoiSource {
+    /// The camera layout when the capture orbits the sparse points, else the points
+    /// ([`roi_auto`], which says which it took and why).
+    #[default]
+    Auto,
     /// The sparse points ([`roi_from_points`]): any capture, but only as complete as the points
     /// are; an object seen from one side gets a sphere about its visible side.
-    #[default]
     Points,
     /// The camera layout ([`roi_from_cameras`]): the point nearest every optical axis and the
     /// largest sphere about it every camera sees whole; for captures that orbit an object and
@@ -614,18 +618,21 @@ pub fn import(
             roi,
             method: "given by --roi-center and --roi-radius".into(),
         },
-        None if opts.roi_from == RoiSource::Cameras => {
-            let cameras: Vec<Camera> = views.iter().map(|v| v.camera.clone()).collect();
-            roi_from_cameras(&cameras)?
-        }
         None => {
+            let cameras: Vec<Camera> = views.iter().map(|v| v.camera.clone()).collect();
             let points: Vec<([f64; 3], usize)> = model
                 .points
                 .iter()
                 .map(|p| (p.xyz, p.track.len()))
                 .collect();
-            let centers: Vec<Vector3<f64>> = views.iter().map(|v| v.camera.center).collect();
-            roi_from_points(&points, &centers)?
+            match opts.roi_from {
+                RoiSource::Auto => roi_auto(&points, &cameras)?,
+                RoiSource::Cameras => roi_from_cameras(&cameras)?,
+                RoiSource::Points => {
+                    let centers: Vec<Vector3<f64>> = cameras.iter().map(|c| c.center).collect();
+                    roi_from_points(&points, &centers)?
+                }
+            }
         }
     };
     Ok((views, roi, format))

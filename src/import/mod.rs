@@ -187,19 +187,11 @@ fn quantile(values: &mut [f64], q: f64) -> f64 {
     values[i]
 }
 
-/// Region of interest from sparse 3-D points with their track lengths (number of images that
-/// observe each point), robust to stray points:
-/// 1. keep points seen by at least 3 images (COLMAP's triangulated outliers are mostly 2-view
-///    points); if fewer than 16 remain, keep all points;
-/// 2. centre = the per-axis midpoint of the 2nd and 98th percentiles (a trimmed bounding box);
-/// 3. radius = 1.1 × the 98th percentile of the kept points' distances to that centre (10 %
-///    margin, so the object's surface is not tangent to the sphere);
-/// 4. if a camera would lie inside, the radius shrinks to 0.9 × the nearest camera's distance
-///    (reported in `method`).
-pub fn roi_from_points(
+/// The sparse points [`roi_from_points`] trusts: the finite ones seen by at least 3 images, or
+/// every finite one when fewer than 16 are; and which of the two, in words. Fails below 4.
+fn trusted_points(
     points: &[([f64; 3], usize)],
-    camera_centers: &[Vector3<f64>],
-) -> Result<RoiChoice, ImportError> {
+) -> Result<(Vec<[f64; 3]>, &'static str), ImportError> {
     let finite: Vec<&([f64; 3], usize)> = points
         .iter()
         .filter(|(p, _)| p.iter().all(|v| v.is_finite()))
@@ -220,13 +212,126 @@ pub fn roi_from_points(
             kept.len()
         )));
     }
-    let mut center = [0.0; 3];
-    for (k, c) in center.iter_mut().enumerate() {
-        let mut axis: Vec<f64> = kept.iter().map(|p| p[k]).collect();
-        let lo = quantile(&mut axis, 0.02);
-        let hi = quantile(&mut axis, 0.98);
-        *c = 0.5 * (lo + hi);
+    Ok((kept, which))
+}
+
+/// The per-axis 2nd and 98th percentiles of `points` (not empty): a bounding box that ignores
+/// the 2 % strays on each side.
+fn trimmed_box(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
+    let (mut lo, mut hi) = ([0.0; 3], [0.0; 3]);
+    for k in 0..3 {
+        let mut axis: Vec<f64> = points.iter().map(|p| p[k]).collect();
+        lo[k] = quantile(&mut axis, 0.02);
+        hi[k] = quantile(&mut axis, 0.98);
     }
+    (lo, hi)
+}
+
+/// The automatic region of interest of `import colmap` (`--roi-from auto`, the default): the
+/// camera layout's sphere when the capture orbits an object, else the sparse points' sphere.
+///
+/// Why: the sparse points cover only what the cameras see. For a capture from one side of an
+/// object (DTU's rig, a turntable seen from above), [`roi_from_points`] centres its sphere on
+/// the visible side and cuts the rest off (24 % of the simulator's `blob` with 49 views, 48 %
+/// with 16, measured with `scripts/colmap_roundtrip.sh`), and a table or room around the object
+/// swells it (373 mm radius against a 100 mm object with the simulator's `ground_plane`). The
+/// point the optical axes meet (instant-nsr-pl's `lookat` centre, `datasets/colmap.py`) is where
+/// such a capture aims, whatever the points cover.
+///
+/// Rule, `S` the sparse points [`roi_from_points`] trusts:
+/// 1. [`roi_from_cameras`] gives the meeting point `p` and the radius `r_cam` of the largest
+///    sphere about `p` that every camera sees whole;
+/// 2. the capture counts as orbiting when that succeeds, `p` lies in front of every camera
+///    (positive depth), and within the sphere about the trimmed box of `S` (2nd–98th percentile
+///    per axis; the sphere through the box's corners, since the points of a one-sided capture
+///    form a cap whose box need not contain the centre the cameras aim at);
+///    otherwise (a forward-facing capture, cameras aimed past the points) the result is
+///    [`roi_from_points`]'s;
+/// 3. radius = `min(r_cam, 1.5 × d98)`, `d98` the 98th percentile of the distances of `S` to
+///    `p`: the sphere stays within every view and does not grow far past the points (a small
+///    object in a wide frame); the factor 1.5 leaves room for the side no camera saw.
+pub fn roi_auto(
+    points: &[([f64; 3], usize)],
+    cameras: &[Camera],
+) -> Result<RoiChoice, ImportError> {
+    let centers: Vec<Vector3<f64>> = cameras.iter().map(|c| c.center).collect();
+    let fallback = |why: String| -> Result<RoiChoice, ImportError> {
+        let mut choice = roi_from_points(points, &centers)?;
+        choice.method = format!("{} (auto: {why})", choice.method);
+        Ok(choice)
+    };
+    let by_cameras = match roi_from_cameras(cameras) {
+        Ok(choice) => choice,
+        Err(e) => return fallback(format!("not an orbit, {e}")),
+    };
+    let p = Vector3::from(by_cameras.roi.center);
+    if let Some(i) = cameras
+        .iter()
+        .position(|c| c.r.row(2).transpose().dot(&(p - c.center)) <= 0.0)
+    {
+        return fallback(format!(
+            "the optical axes meet behind camera {i}, not an orbit"
+        ));
+    }
+    let (kept, which) = trusted_points(points)?;
+    let (lo, hi) = trimmed_box(&kept);
+    let (lo, hi) = (Vector3::from(lo), Vector3::from(hi));
+    if (p - 0.5 * (lo + hi)).norm() > 0.5 * (hi - lo).norm() {
+        return fallback(
+            "the optical axes meet outside the sphere about the sparse points' box, not an \
+             orbit of them"
+                .into(),
+        );
+    }
+    let mut dist: Vec<f64> = kept
+        .iter()
+        .map(|q| (Vector3::from(*q) - p).norm())
+        .collect();
+    let d98 = quantile(&mut dist, 0.98);
+    let (radius, bound) = if 1.5 * d98 < by_cameras.roi.radius {
+        (
+            1.5 * d98,
+            "1.5 x the 98th percentile of the points' distances to it",
+        )
+    } else {
+        (
+            by_cameras.roi.radius,
+            "the largest sphere about it that every camera sees whole",
+        )
+    };
+    let roi = Roi {
+        center: by_cameras.roi.center,
+        radius,
+    };
+    roi.validate()?;
+    Ok(RoiChoice {
+        roi,
+        method: format!(
+            "auto, an orbit of {} cameras around {} of {} sparse points ({which}): centre = point \
+             closest to all optical axes, radius = {bound}",
+            cameras.len(),
+            kept.len(),
+            points.len()
+        ),
+    })
+}
+
+/// Region of interest from sparse 3-D points with their track lengths (number of images that
+/// observe each point), robust to stray points:
+/// 1. keep points seen by at least 3 images (COLMAP's triangulated outliers are mostly 2-view
+///    points); if fewer than 16 remain, keep all points;
+/// 2. centre = the per-axis midpoint of the 2nd and 98th percentiles (a trimmed bounding box);
+/// 3. radius = 1.1 × the 98th percentile of the kept points' distances to that centre (10 %
+///    margin, so the object's surface is not tangent to the sphere);
+/// 4. if a camera would lie inside, the radius shrinks to 0.9 × the nearest camera's distance
+///    (reported in `method`).
+pub fn roi_from_points(
+    points: &[([f64; 3], usize)],
+    camera_centers: &[Vector3<f64>],
+) -> Result<RoiChoice, ImportError> {
+    let (kept, which) = trusted_points(points)?;
+    let (lo, hi) = trimmed_box(&kept);
+    let center: [f64; 3] = std::array::from_fn(|k| 0.5 * (lo[k] + hi[k]));
     let c = Vector3::from(center);
     let mut dist: Vec<f64> = kept
         .iter()
@@ -556,6 +661,138 @@ mod tests {
             roi_from_cameras(&cams[..1]),
             Err(ImportError::Roi(_))
         ));
+    }
+
+    /// A camera at `center` aimed at `target` (OpenCV axes: rows of R are the camera axes in
+    /// world coordinates), 400×300 pixels, focal 700 px.
+    fn aimed_camera(center: Vector3<f64>, target: Vector3<f64>) -> Camera {
+        let z = (target - center).normalize();
+        let x = z.cross(&Vector3::new(0.0, 0.0, 1.0)).normalize();
+        let y = z.cross(&x);
+        Camera {
+            k: Matrix3::new(700.0, 0.0, 200.0, 0.0, 700.0, 150.0, 0.0, 0.0, 1.0),
+            r: Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]),
+            center,
+            width: 400,
+            height: 300,
+        }
+    }
+
+    /// 12 cameras 12 units from `target`, 20–60° above its horizontal plane over a 90° arc, as the
+    /// simulator's rig (DTU's is alike).
+    fn orbit(target: Vector3<f64>) -> Vec<Camera> {
+        (0..12)
+            .map(|i| {
+                let az = (-45.0 + 90.0 * (i % 4) as f64 / 3.0f64).to_radians();
+                let el = (20.0 + 20.0 * (i / 4) as f64).to_radians();
+                let dir = Vector3::new(el.cos() * az.cos(), el.cos() * az.sin(), el.sin());
+                aimed_camera(target + 12.0 * dir, target)
+            })
+            .collect()
+    }
+
+    /// Points on the part of the unit sphere about `target` that faces the orbit (the side its
+    /// cameras see), all seen by 5 images.
+    fn visible_cap(target: Vector3<f64>) -> Vec<([f64; 3], usize)> {
+        (0..2000)
+            .filter_map(|i| {
+                let t = i as f64 * 0.618_034 * std::f64::consts::TAU;
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / 2000.0;
+                let r = (1.0 - z * z).sqrt();
+                let n = Vector3::new(r * t.cos(), r * t.sin(), z);
+                (n.x + n.z > 0.3).then(|| ((target + n).into(), 5))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn roi_auto_takes_the_orbit_centre_where_the_points_cover_one_side() {
+        let target = Vector3::new(2.0, -1.0, 0.5);
+        let cams = orbit(target);
+        let cap = visible_cap(target);
+        // The far side of the object, which no camera sees and no point covers.
+        let far = target - Vector3::new(1.0, 0.0, 1.0).normalize();
+        let inside = |c: &RoiChoice, q: Vector3<f64>| {
+            (q - Vector3::from(c.roi.center)).norm() <= c.roi.radius
+        };
+        let by_points =
+            roi_from_points(&cap, &cams.iter().map(|c| c.center).collect::<Vec<_>>()).unwrap();
+        assert!(
+            !inside(&by_points, far),
+            "the points' sphere cuts the far side: {by_points:?}"
+        );
+        let auto = roi_auto(&cap, &cams).unwrap();
+        assert!(
+            (Vector3::from(auto.roi.center) - target).norm() < 1e-9,
+            "{auto:?}"
+        );
+        assert!(inside(&auto, far) && auto.roi.radius >= 1.4, "{auto:?}");
+        // The radius follows the points (1.5 x their 98th-percentile distance, ~1.5), not the
+        // far larger sphere every camera sees whole.
+        let by_cameras = roi_from_cameras(&cams).unwrap();
+        assert!(by_cameras.roi.radius > 2.0, "{by_cameras:?}");
+        assert!(
+            auto.roi.radius <= 1.5 + 1e-9 && auto.method.starts_with("auto, an orbit"),
+            "{auto:?}"
+        );
+        for c in &cams {
+            assert!((c.center - target).norm() > auto.roi.radius);
+        }
+
+        // A table of points around the object, out to 6 units: the sphere stops where the
+        // cameras' views do, instead of swelling to the table.
+        let mut with_table = cap.clone();
+        for i in 0..3000 {
+            let a = i as f64 * 0.618_034 * std::f64::consts::TAU;
+            let rho = 6.0 * ((i as f64 + 0.5) / 3000.0).sqrt();
+            with_table.push((
+                [
+                    target.x + rho * a.cos(),
+                    target.y + rho * a.sin(),
+                    target.z - 1.0,
+                ],
+                4,
+            ));
+        }
+        let auto = roi_auto(&with_table, &cams).unwrap();
+        assert!(
+            (auto.roi.radius - by_cameras.roi.radius).abs() < 1e-12,
+            "{auto:?}"
+        );
+        assert!(auto.method.contains("every camera sees whole"), "{auto:?}");
+    }
+
+    #[test]
+    fn roi_auto_falls_back_to_the_points_when_the_capture_is_no_orbit() {
+        let target = Vector3::new(0.0, 0.0, 0.0);
+        let cap = visible_cap(target);
+        let centers = |cams: &[Camera]| cams.iter().map(|c| c.center).collect::<Vec<_>>();
+        // Forward-facing: parallel optical axes never meet.
+        let forward: Vec<Camera> = (0..6)
+            .map(|i| {
+                let c = Vector3::new(i as f64 - 2.5, -10.0, 0.3);
+                aimed_camera(c, c + Vector3::new(0.0, 1.0, 0.0))
+            })
+            .collect();
+        // Cameras aimed at a point 20 units away from the points (they photographed something
+        // else), and cameras on a ring around the points aimed outwards (their axes meet behind
+        // them).
+        let elsewhere: Vec<Camera> = orbit(Vector3::new(20.0, 0.0, 0.0));
+        let outward: Vec<Camera> = orbit(target)
+            .into_iter()
+            .map(|c| aimed_camera(c.center, 2.0 * c.center - target))
+            .collect();
+        for (what, cams) in [
+            ("forward", forward),
+            ("elsewhere", elsewhere),
+            ("outward", outward),
+        ] {
+            let auto = roi_auto(&cap, &cams).unwrap();
+            let by_points = roi_from_points(&cap, &centers(&cams)).unwrap();
+            assert_eq!(auto.roi.center, by_points.roi.center, "{what}: {auto:?}");
+            assert_eq!(auto.roi.radius, by_points.roi.radius, "{what}");
+            assert!(auto.method.contains("(auto: "), "{what}: {}", auto.method);
+        }
     }
 
     #[test]
