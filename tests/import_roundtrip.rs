@@ -306,20 +306,27 @@ fn cli_synth_export_then_import_both_formats() {
     assert!(synth.join("colmap/sparse/0/images.txt").is_file());
     assert!(synth.join("transforms.json").is_file());
     let truth = world_cameras(&load(&synth));
-    let a = tmp.path().join("a");
-    let stdout = run(&[
-        "import",
-        "colmap",
-        synth.join("colmap/sparse/0").to_str().unwrap(),
-        "--images",
-        synth.join("image").to_str().unwrap(),
-        "--masks",
-        synth.join("mask").to_str().unwrap(),
-        "--roi-from",
-        "points",
-        "--out",
-        a.to_str().unwrap(),
-    ]);
+    // `import colmap` of the exported model into tmp/NAME, with EXTRA flags; (folder, stdout).
+    let import_colmap = |name: &str, extra: &[&str]| {
+        let out = tmp.path().join(name);
+        let (model, images) = (synth.join("colmap/sparse/0"), synth.join("image"));
+        let mut args = vec!["import", "colmap", model.to_str().unwrap()];
+        args.extend(["--images", images.to_str().unwrap()]);
+        args.extend_from_slice(extra);
+        args.extend(["--out", out.to_str().unwrap()]);
+        let stdout = run(&args);
+        (out, stdout)
+    };
+    let mask_dir = synth.join("mask");
+    let (a, stdout) = import_colmap(
+        "a",
+        &[
+            "--masks",
+            mask_dir.to_str().unwrap(),
+            "--roi-from",
+            "points",
+        ],
+    );
     assert!(stdout.contains("region of interest"), "{stdout}");
     let sa = load(&a);
     // Override the ROI of the transforms import with the one the COLMAP import chose.
@@ -349,18 +356,7 @@ fn cli_synth_export_then_import_both_formats() {
     );
     // `--roi-from cameras`: the camera-layout region, the one the transforms importer chooses
     // from the same cameras by default (and not the sparse points' one).
-    let c = tmp.path().join("c");
-    run(&[
-        "import",
-        "colmap",
-        synth.join("colmap/sparse/0").to_str().unwrap(),
-        "--images",
-        synth.join("image").to_str().unwrap(),
-        "--roi-from",
-        "cameras",
-        "--out",
-        c.to_str().unwrap(),
-    ]);
+    let (c, _) = import_colmap("c", &["--roi-from", "cameras"]);
     let d = tmp.path().join("d");
     run(&[
         "import",
@@ -386,16 +382,7 @@ fn cli_synth_export_then_import_both_formats() {
     );
     // The default, `--roi-from auto`: the simulator's rig orbits the object, so the centre is
     // the camera layout's, and the radius at most its.
-    let e = tmp.path().join("e");
-    run(&[
-        "import",
-        "colmap",
-        synth.join("colmap/sparse/0").to_str().unwrap(),
-        "--images",
-        synth.join("image").to_str().unwrap(),
-        "--out",
-        e.to_str().unwrap(),
-    ]);
+    let (e, _) = import_colmap("e", &[]);
     let ne = load(&e).normalization;
     let centre_gap = (Vector3::from(ne.center) - Vector3::from(nc.center)).norm();
     assert!(
