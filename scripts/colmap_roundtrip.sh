@@ -59,9 +59,9 @@
 set -euo pipefail
 
 usage() {
-  echo "usage: scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P] [--seed S]" \
-    "[--iterations N] [--intrinsics estimate|known] [--roi-from auto|points|cameras]" \
-    "[--min-registered K] [--bound B]" \
+  echo "usage: scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P | --config FILE]" \
+    "[--seed S] [--iterations N] [--intrinsics estimate|known] [--roi-from auto|points|cameras]" \
+    "[--min-registered K] [--bound B] [--views N] [--resolution WxH] [--spp N] [--gt-spacing MM]" \
     "(details: the comment at its top)" >&2
   exit 1
 }

@@ -232,11 +232,12 @@ fn trimmed_box(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 ///
 /// Why: the sparse points cover only what the cameras see. For a capture from one side of an
 /// object (DTU's rig, a turntable seen from above), [`roi_from_points`] centres its sphere on
-/// the visible side and cuts the rest off (24 % of the simulator's `blob` with 49 views, 48 %
+/// the visible side and cuts the rest off (23 % of the simulator's `blob` with 49 views, 48 %
 /// with 16, measured with `scripts/colmap_roundtrip.sh`), and a table or room around the object
 /// swells it (373 mm radius against a 100 mm object with the simulator's `ground_plane`). The
-/// point the optical axes meet (instant-nsr-pl's `lookat` centre, `datasets/colmap.py`) is where
-/// such a capture aims, whatever the points cover.
+/// point the optical axes meet is where such a capture aims, whatever the points cover
+/// (instant-nsr-pl's default `lookat` centre, `normalize_poses` in `datasets/colmap.py`, takes it
+/// from pairs of rays; [`roi_from_cameras`] from all of them at once, in least squares).
 ///
 /// Rule, `S` the sparse points [`roi_from_points`] trusts:
 /// 1. [`roi_from_cameras`] gives the meeting point `p` and the radius `r_cam` of the largest
