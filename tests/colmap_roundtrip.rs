@@ -124,4 +124,103 @@ fn colmap_round_trip_on_a_tiny_scene_stays_within_the_bound() {
         "COLMAP / true Chamfer {ratio} > 1.3: {summary}"
     );
     assert_eq!(summary["within_bound"], true, "{summary}");
+
+    // COLMAP is installed now (the script saw to it): check the importer's undistortion against
+    // COLMAP's own undistorter on the same distorted image.
+    undistortion_matches_colmaps_image_undistorter(tmp.path());
+}
+
+/// `colmap image_undistorter` on a textured 160×120 image of an OPENCV camera, then
+/// `neus_aug::import::undistort::undistort_rgb` of the same image into the PINHOLE camera COLMAP
+/// chose: the two must agree to within interpolation error, and far better than the distorted
+/// image itself does (so the check would catch a wrong sign or a swapped coefficient).
+fn undistortion_matches_colmaps_image_undistorter(tmp: &Path) {
+    use neus_aug::import::{colmap, undistort, Distortion};
+    use neus_aug::scene::RgbImage;
+    let dir = tmp.join("undistort");
+    let (images, model, out) = (dir.join("images"), dir.join("model"), dir.join("out"));
+    for d in [&images, &model] {
+        std::fs::create_dir_all(d).unwrap();
+    }
+    let (w, h) = (160usize, 120usize);
+    let mut src = RgbImage::new(w, h);
+    for y in 0..h {
+        for x in 0..w {
+            let (fx, fy) = (x as f32 / 9.0, y as f32 / 7.0);
+            let p = (y * w + x) * 3;
+            src.data[p] = 0.5 + 0.4 * fx.sin() * fy.cos();
+            src.data[p + 1] = 0.5 + 0.4 * (0.7 * fx + 0.3 * fy).sin();
+            src.data[p + 2] = 0.5 + 0.4 * (0.2 * fx - 0.9 * fy).cos();
+        }
+    }
+    src.save(&images.join("img.png")).unwrap();
+    let dist = Distortion {
+        k1: -0.18,
+        k2: 0.03,
+        p1: 0.002,
+        p2: -0.001,
+    };
+    let (f, fy, cx, cy) = (150.0, 152.0, 80.5, 59.5);
+    std::fs::write(
+        model.join("cameras.txt"),
+        format!(
+            "1 OPENCV {w} {h} {f} {fy} {cx} {cy} {} {} {} {}\n",
+            dist.k1, dist.k2, dist.p1, dist.p2
+        ),
+    )
+    .unwrap();
+    std::fs::write(model.join("images.txt"), "1 1 0 0 0 0 0 0 1 img.png\n\n").unwrap();
+    std::fs::write(model.join("points3D.txt"), "").unwrap();
+    let run = Command::new("colmap")
+        .arg("image_undistorter")
+        .arg("--image_path")
+        .arg(&images)
+        .arg("--input_path")
+        .arg(&model)
+        .arg("--output_path")
+        .arg(&out)
+        .args(["--output_type", "COLMAP"])
+        .env("QT_QPA_PLATFORM", "offscreen")
+        .output()
+        .expect("colmap runs");
+    assert!(
+        run.status.success(),
+        "colmap image_undistorter failed: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let (undist_model, _) = colmap::read_model(&out.join("sparse")).unwrap();
+    let cam = undist_model.cameras.values().next().unwrap();
+    assert_eq!(cam.model, "PINHOLE", "{cam:?}");
+    let (k_dst, d) = colmap::intrinsics(cam, Path::new("cameras")).unwrap();
+    assert!(d.is_zero());
+    let theirs = RgbImage::load(&out.join("images/img.png")).unwrap();
+    let k_src = nalgebra::Matrix3::new(f, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0);
+    let (wd, hd) = (cam.width as usize, cam.height as usize);
+    let ours = undistort::undistort_rgb(&src, &k_src, &dist, &k_dst, wd, hd);
+    let plain = undistort::undistort_rgb(&src, &k_src, &Distortion::default(), &k_dst, wd, hd);
+    // Mean absolute difference over interior pixels both images filled.
+    let mad = |a: &RgbImage| {
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for y in 3..hd - 3 {
+            for x in 3..wd - 3 {
+                let (p, q) = (a.get(x, y), theirs.get(x, y));
+                if p.iter().chain(&q).all(|&v| v > 0.02) {
+                    sum += (0..3).map(|c| (p[c] - q[c]).abs() as f64).sum::<f64>() / 3.0;
+                    n += 1;
+                }
+            }
+        }
+        assert!(n > wd * hd / 2, "too few comparable pixels: {n}");
+        sum / n as f64
+    };
+    let (ours_mad, plain_mad) = (mad(&ours), mad(&plain));
+    eprintln!(
+        "undistortion against colmap image_undistorter ({wd}x{hd}): mean |diff| {ours_mad:.4}, \
+         without undistorting {plain_mad:.4}"
+    );
+    assert!(ours_mad < 0.01, "ours {ours_mad}, plain {plain_mad}");
+    assert!(
+        plain_mad > 5.0 * ours_mad,
+        "ours {ours_mad}, plain {plain_mad}"
+    );
 }

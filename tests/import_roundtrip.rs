@@ -203,7 +203,8 @@ fn bad_colmap_inputs_give_errors_naming_the_file_or_model() {
         err.contains("FISHEYE_9000") && err.contains("cameras.txt"),
         "{err}"
     );
-    // A distorted one: names the model and the undistorter.
+    // A distorted one imports (undistorted, src/import/undistort.rs); one whose coefficients
+    // are not numbers is refused with the camera named.
     let opencv = original.replace("PINHOLE", "OPENCV");
     let opencv: String = opencv
         .lines()
@@ -211,16 +212,31 @@ fn bad_colmap_inputs_give_errors_naming_the_file_or_model() {
             if l.starts_with('#') {
                 l.to_string()
             } else {
-                format!("{l} 0.01 0 0 0")
+                format!("{l} nan 0 0 0")
             }
         })
         .collect::<Vec<_>>()
         .join("\n");
-    std::fs::write(&cams, opencv).unwrap();
+    std::fs::write(&cams, &opencv).unwrap();
     let err = import_err(&model_dir, &images, None, &out);
     assert!(
-        err.contains("OPENCV") && err.contains("colmap image_undistorter"),
+        err.contains("distortion") && err.contains("cameras.txt"),
         "{err}"
+    );
+    // With k1 = 0.05 the scene is written, its images resampled (no longer the source bytes'
+    // pixels) and the same size.
+    std::fs::write(&cams, opencv.replace(" nan 0 0 0", " 0.05 0 0 0")).unwrap();
+    let distorted_out = tmp.path().join("distorted");
+    colmap_import(&model_dir, &images, None, &distorted_out);
+    let written = neus_aug::scene::RgbImage::load(&distorted_out.join("image/000000.png")).unwrap();
+    let source = neus_aug::scene::RgbImage::load(&images.join("000000.png")).unwrap();
+    assert_eq!(
+        (written.width, written.height),
+        (source.width, source.height)
+    );
+    assert_ne!(
+        written.data, source.data,
+        "the distorted view was not resampled"
     );
     std::fs::write(&cams, &original).unwrap();
 

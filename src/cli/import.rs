@@ -43,8 +43,8 @@ impl RoiArgs {
 #[derive(Debug, clap::Subcommand)]
 pub enum ImportSource {
     /// A COLMAP sparse model (text or binary; e.g. <project>/sparse/0). Cameras must be PINHOLE,
-    /// SIMPLE_PINHOLE, or SIMPLE_RADIAL/RADIAL/OPENCV with zero distortion: undistort with
-    /// `colmap image_undistorter` first otherwise. Images may be PNG or JPEG.
+    /// SIMPLE_PINHOLE, SIMPLE_RADIAL, RADIAL or OPENCV: distorted images (and masks) are
+    /// resampled into a pinhole camera with the same K and size. Images may be PNG or JPEG.
     Colmap {
         /// The model folder holding cameras, images and points3D (.txt or .bin).
         sparse: PathBuf,

@@ -21,17 +21,17 @@
 //!   point u64 id, f64 xyz[3], u8 rgb[3], f64 error, u64 track length and per element i32 image
 //!   id, i32 2-D point index (COLMAP `scripts/python/read_write_model.py`).
 //!
-//! **Distortion** (a choice, documented): neus-aug's rays are pinhole rays, so a camera of a
-//! distorted model (SIMPLE_RADIAL, RADIAL, OPENCV) is imported only when all its distortion
-//! coefficients are exactly zero; otherwise the import stops with an error that names the camera
-//! and model and gives the `colmap image_undistorter` command, whose output (PINHOLE cameras and
-//! undistorted images) imports directly.
+//! **Distortion** (a choice, documented): neus-aug's rays are pinhole rays, so the images (and
+//! masks) of a camera of a distorted model (SIMPLE_RADIAL, RADIAL, OPENCV) are undistorted into
+//! the scene: resampled into a pinhole camera with the same `K` and size ([`super::undistort`],
+//! checked against `colmap image_undistorter` in `tests/colmap_roundtrip.rs`). Output of
+//! `colmap image_undistorter` (PINHOLE cameras) imports as it is.
 
 use super::colmap_binary;
 pub use super::colmap_binary::write_binary;
 use super::{
-    find_mask, io_err, roi_auto, roi_from_cameras, roi_from_points, ImportError, ImportedView, Roi,
-    RoiChoice,
+    find_mask, io_err, roi_auto, roi_from_cameras, roi_from_points, Distortion, ImportError,
+    ImportedView, Roi, RoiChoice,
 };
 use crate::scene::Camera;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
@@ -400,9 +400,12 @@ pub(crate) fn supported_hint() -> String {
     )
 }
 
-/// The intrinsics `K` of a camera (module doc for the models). Distorted models are accepted
-/// only with all distortion coefficients zero (module doc).
-pub fn intrinsics(cam: &ColmapCamera, file: &Path) -> Result<Matrix3<f64>, ImportError> {
+/// The intrinsics `K` of a camera and its lens distortion (module doc for the models; the
+/// distortion is undone when the scene is written, [`super::undistort`]).
+pub fn intrinsics(
+    cam: &ColmapCamera,
+    file: &Path,
+) -> Result<(Matrix3<f64>, Distortion), ImportError> {
     let unsupported = |hint: String| ImportError::UnsupportedModel {
         file: file.into(),
         camera_id: cam.id as u64,
@@ -430,19 +433,44 @@ pub fn intrinsics(cam: &ColmapCamera, file: &Path) -> Result<Matrix3<f64>, Impor
         ));
     }
     let p = &cam.params;
+    let zero = Distortion::default();
     let (fx, fy, cx, cy, distortion) = match cam.model.as_str() {
-        "SIMPLE_PINHOLE" => (p[0], p[0], p[1], p[2], &p[3..]),
-        "PINHOLE" => (p[0], p[1], p[2], p[3], &p[4..]),
-        "SIMPLE_RADIAL" | "RADIAL" => (p[0], p[0], p[1], p[2], &p[3..]),
-        _ => (p[0], p[1], p[2], p[3], &p[4..]),
+        "SIMPLE_PINHOLE" => (p[0], p[0], p[1], p[2], zero),
+        "PINHOLE" => (p[0], p[1], p[2], p[3], zero),
+        "SIMPLE_RADIAL" => (p[0], p[0], p[1], p[2], Distortion { k1: p[3], ..zero }),
+        "RADIAL" => (
+            p[0],
+            p[0],
+            p[1],
+            p[2],
+            Distortion {
+                k1: p[3],
+                k2: p[4],
+                ..zero
+            },
+        ),
+        _ => (
+            p[0],
+            p[1],
+            p[2],
+            p[3],
+            Distortion {
+                k1: p[4],
+                k2: p[5],
+                p1: p[6],
+                p2: p[7],
+            },
+        ),
     };
-    if distortion.iter().any(|&d| d != 0.0) {
-        return Err(unsupported(format!(
-            "its distortion coefficients {distortion:?} are not zero and neus-aug models pinhole \
-             rays only: undistort first with `colmap image_undistorter --image_path IMAGES \
-             --input_path SPARSE --output_path UNDIST`, then import UNDIST/sparse with --images \
-             UNDIST/images"
-        )));
+    let coefficients = [distortion.k1, distortion.k2, distortion.p1, distortion.p2];
+    if coefficients.iter().any(|c| !c.is_finite()) {
+        return Err(parse_err(
+            file,
+            format!(
+                "camera {}: distortion coefficients must be finite, got {p:?}",
+                cam.id
+            ),
+        ));
     }
     let finite = fx.is_finite() && fy.is_finite() && cx.is_finite() && cy.is_finite();
     if !(finite && fx > 0.0 && fy > 0.0) {
@@ -454,7 +482,10 @@ pub fn intrinsics(cam: &ColmapCamera, file: &Path) -> Result<Matrix3<f64>, Impor
             ),
         ));
     }
-    Ok(Matrix3::new(fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0))
+    Ok((
+        Matrix3::new(fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0),
+        distortion,
+    ))
 }
 
 /// World-to-camera rotation of a COLMAP quaternion `[qw, qx, qy, qz]` (normalised first).
@@ -546,7 +577,7 @@ pub fn import(
                 ),
             )
         })?;
-        let k = intrinsics(cam, &cameras_file)?;
+        let (k, distortion) = intrinsics(cam, &cameras_file)?;
         let r = rotation(im.qvec).ok_or_else(|| {
             parse_err(
                 &images_file,
@@ -611,6 +642,7 @@ pub fn import(
                 width,
                 height,
             },
+            distortion,
         });
     }
     let roi = match opts.roi {
@@ -729,7 +761,7 @@ mod tests {
     }
 
     #[test]
-    fn pinhole_models_give_k_and_distorted_ones_are_refused_by_name() {
+    fn pinhole_models_give_k_and_distorted_ones_their_coefficients() {
         let file = Path::new("cameras.txt");
         let cam = |model: &str, params: Vec<f64>| ColmapCamera {
             id: 2,
@@ -738,34 +770,31 @@ mod tests {
             height: 10,
             params,
         };
-        let k = intrinsics(&cam("SIMPLE_PINHOLE", vec![50.0, 5.0, 4.5]), file).unwrap();
+        let (k, d) = intrinsics(&cam("SIMPLE_PINHOLE", vec![50.0, 5.0, 4.5]), file).unwrap();
         assert_eq!(
             k,
             Matrix3::new(50.0, 0.0, 5.0, 0.0, 50.0, 4.5, 0.0, 0.0, 1.0)
         );
-        let k = intrinsics(&cam("PINHOLE", vec![50.0, 52.0, 5.0, 4.5]), file).unwrap();
+        assert!(d.is_zero());
+        let (k, _) = intrinsics(&cam("PINHOLE", vec![50.0, 52.0, 5.0, 4.5]), file).unwrap();
         assert_eq!((k[(0, 0)], k[(1, 1)]), (50.0, 52.0));
         // Distorted models with zero distortion are pinholes.
-        let k = intrinsics(&cam("RADIAL", vec![50.0, 5.0, 4.5, 0.0, 0.0]), file).unwrap();
+        let (k, d) = intrinsics(&cam("RADIAL", vec![50.0, 5.0, 4.5, 0.0, 0.0]), file).unwrap();
         assert_eq!(k[(1, 1)], 50.0);
-        let k = intrinsics(
-            &cam("OPENCV", vec![50.0, 51.0, 5.0, 4.5, 0.0, 0.0, 0.0, 0.0]),
-            file,
-        )
-        .unwrap();
+        assert!(d.is_zero());
+        // Each model's coefficients land in the OpenCV model's slots (COLMAP models.h).
+        let (_, d) = intrinsics(&cam("SIMPLE_RADIAL", vec![50.0, 5.0, 4.5, 0.1]), file).unwrap();
+        assert_eq!((d.k1, d.k2, d.p1, d.p2), (0.1, 0.0, 0.0, 0.0));
+        let (_, d) = intrinsics(&cam("RADIAL", vec![50.0, 5.0, 4.5, 0.1, -0.02]), file).unwrap();
+        assert_eq!((d.k1, d.k2, d.p1, d.p2), (0.1, -0.02, 0.0, 0.0));
+        let opencv = vec![50.0, 51.0, 5.0, 4.5, 0.1, -0.02, 1e-4, -2e-4];
+        let (k, d) = intrinsics(&cam("OPENCV", opencv), file).unwrap();
         assert_eq!(k[(1, 1)], 51.0);
-        for (model, params) in [
-            ("SIMPLE_RADIAL", vec![50.0, 5.0, 4.5, 0.1]),
-            ("OPENCV", vec![50.0, 51.0, 5.0, 4.5, 0.0, 0.0, 1e-4, 0.0]),
-        ] {
-            let err = intrinsics(&cam(model, params), file)
-                .unwrap_err()
-                .to_string();
-            assert!(
-                err.contains(model) && err.contains("image_undistorter"),
-                "{err}"
-            );
-        }
+        assert_eq!((d.k1, d.k2, d.p1, d.p2), (0.1, -0.02, 1e-4, -2e-4));
+        let err = intrinsics(&cam("SIMPLE_RADIAL", vec![50.0, 5.0, 4.5, f64::NAN]), file)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("distortion"), "{err}");
         let err = intrinsics(&cam("OPENCV_FISHEYE", vec![0.0; 8]), file)
             .unwrap_err()
             .to_string();

@@ -28,6 +28,9 @@ pub mod colmap;
 pub mod colmap_binary;
 pub mod export;
 pub mod transforms;
+pub mod undistort;
+
+pub use undistort::Distortion;
 
 use crate::scene::{
     write_cameras, Camera, GrayImage, ImageError, Normalization, RgbImage, SceneError,
@@ -421,6 +424,9 @@ pub struct ImportedView {
     pub mask: Option<PathBuf>,
     /// Camera in the source's world frame (OpenCV axes), size = the image's.
     pub camera: Camera,
+    /// The lens distortion of the source camera (zero = pinhole); when non-zero, the image and
+    /// mask are resampled into `camera`'s pinhole model on writing ([`undistort`]).
+    pub distortion: Distortion,
 }
 
 /// What an import wrote (also saved as `import.json` in the scene).
@@ -525,9 +531,19 @@ pub fn write_imported_scene(
         .par_iter()
         .enumerate()
         .try_for_each(|(i, v)| -> Result<(), ImportError> {
-            RgbImage::load(&v.image)?.save(&image_dir.join(format!("{i:06}.png")))?;
+            let (k, d) = (&v.camera.k, &v.distortion);
+            let (w, h) = (v.camera.width as usize, v.camera.height as usize);
+            let mut image = RgbImage::load(&v.image)?;
+            if !d.is_zero() {
+                image = undistort::undistort_rgb(&image, k, d, k, w, h);
+            }
+            image.save(&image_dir.join(format!("{i:06}.png")))?;
             if let (true, Some(m)) = (masks, &v.mask) {
-                GrayImage::load(m)?.save(&mask_dir.join(format!("{i:03}.png")))?;
+                let mut mask = GrayImage::load(m)?;
+                if !d.is_zero() {
+                    mask = undistort::undistort_mask(&mask, k, d, k, w, h);
+                }
+                mask.save(&mask_dir.join(format!("{i:03}.png")))?;
             }
             Ok(())
         })?;

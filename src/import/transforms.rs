@@ -266,6 +266,7 @@ pub fn import(
                 width: w as u32,
                 height: h as u32,
             },
+            distortion: Default::default(),
         });
     }
     let choice = match roi {
