@@ -228,6 +228,10 @@ fn bad_colmap_inputs_give_errors_naming_the_file_or_model() {
     std::fs::write(&cams, opencv.replace(" nan 0 0 0", " 0.05 0 0 0")).unwrap();
     let distorted_out = tmp.path().join("distorted");
     colmap_import(&model_dir, &images, None, &distorted_out);
+    let record: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(distorted_out.join("import.json")).unwrap())
+            .unwrap();
+    assert_eq!(record["undistorted"], 8, "{record}");
     let written = neus_aug::scene::RgbImage::load(&distorted_out.join("image/000000.png")).unwrap();
     let source = neus_aug::scene::RgbImage::load(&images.join("000000.png")).unwrap();
     assert_eq!(

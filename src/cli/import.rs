@@ -84,11 +84,15 @@ pub enum ImportSource {
 fn print_report(r: &ImportReport) {
     let [x, y, z] = r.roi.roi.center;
     println!(
-        "wrote {} ({} views{}, from {} {}): region of interest centre ({x}, {y}, {z}) radius {} \
+        "wrote {} ({} views{}{}, from {} {}): region of interest centre ({x}, {y}, {z}) radius {} \
          [{}]",
         r.scene.display(),
         r.views,
         if r.masks { ", masks" } else { "" },
+        match r.undistorted {
+            0 => String::new(),
+            n => format!(", {n} undistorted"),
+        },
         r.source_format,
         r.source.display(),
         r.roi.roi.radius,

@@ -55,4 +55,7 @@ fn print_import_record(path: &std::path::Path) {
         v["roi"]["roi"]["radius"],
         v["roi"]["method"].as_str().unwrap_or("?")
     );
+    if let Some(n) = v["undistorted"].as_u64().filter(|&n| n > 0) {
+        println!("undistorted  {n} views (lens distortion resampled into pinhole images)");
+    }
 }

@@ -442,6 +442,9 @@ pub struct ImportReport {
     pub views: usize,
     /// Whether `mask/` was written.
     pub masks: bool,
+    /// How many views had lens distortion and were resampled into their pinhole camera
+    /// ([`undistort`]).
+    pub undistorted: usize,
     /// The region of interest (world frame of the source) and how it was chosen.
     pub roi: RoiChoice,
     /// Source name of each view, in scene order (`image/{i:06}.png` is `names[i]`).
@@ -555,6 +558,7 @@ pub fn write_imported_scene(
         scene: out.into(),
         views: views.len(),
         masks,
+        undistorted: views.iter().filter(|v| !v.distortion.is_zero()).count(),
         roi: roi.clone(),
         names: views.iter().map(|v| v.name.clone()).collect(),
     };
