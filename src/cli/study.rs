@@ -58,6 +58,13 @@ pub struct StudyArgs {
     /// For `collect`: write the report here instead of DIR/report.
     #[arg(long)]
     pub to: Option<PathBuf>,
+    /// For `collect` of a pareto study: draw another pareto study's front beside this one's
+    /// (its folder, its report folder, or its pareto.csv), e.g. an older build's.
+    #[arg(long, value_name = "DIR|CSV")]
+    pub reference_front: Option<PathBuf>,
+    /// Legend name of `--reference-front`.
+    #[arg(long, default_value = "reference")]
+    pub reference_label: String,
     /// Where DTU scans live (to recognise `--scenes scan24`).
     #[arg(long, env = "NEUS_AUG_DATA", default_value = "data/dtu")]
     pub data_root: PathBuf,
@@ -165,7 +172,14 @@ fn run_collect(args: &StudyArgs) -> anyhow::Result<()> {
         .to
         .clone()
         .unwrap_or_else(|| dir.join(report::REPORT_DIR));
-    let c = study::collect(dir, &to).with_context(|| format!("collect {}", dir.display()))?;
+    let reference = args
+        .reference_front
+        .as_deref()
+        .map(|p| report::read_reference_front(p, &args.reference_label))
+        .transpose()
+        .context("--reference-front")?;
+    let c = study::collect_with_reference(dir, &to, reference.as_ref())
+        .with_context(|| format!("collect {}", dir.display()))?;
     println!(
         "collected {} of {} runs from {} into {}{}",
         c.collected,

@@ -61,7 +61,7 @@ pub mod stats;
 
 pub use grid::{Grid, StudyOptions};
 pub use plan::{RunSpec, StudyPlan};
-pub use report::{collect, CollectSummary, RunRecord};
+pub use report::{collect, collect_with_reference, CollectSummary, RunRecord};
 pub use run::{execute, ExecOptions, ExecSummary};
 
 use std::path::PathBuf;

@@ -281,15 +281,50 @@ pub struct ParetoPoint {
     pub on_front: bool,
 }
 
+/// Another study's Pareto front drawn beside this one's (`study collect --reference-front`):
+/// an older build, another machine, another recipe.
+#[derive(Clone, Debug)]
+pub struct ReferenceFront {
+    /// Legend entry.
+    pub label: String,
+    /// Every point of the reference study, (time to mesh in s, Chamfer in mm).
+    pub points: Vec<(f64, f64)>,
+    /// Which of `points` are on its front (same length as `points`).
+    pub on_front: Vec<bool>,
+}
+
+/// The staircase through a front's points: sorted by time, each step holding the previous
+/// point's error until the next point's time.
+fn staircase(mut front: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut stair = Vec::new();
+    for (i, &(t, c)) in front.iter().enumerate() {
+        if i > 0 {
+            stair.push((t, front[i - 1].1));
+        }
+        stair.push((t, c));
+    }
+    stair
+}
+
 /// Chamfer against time to mesh, log time axis, the Pareto front as a staircase, presets
-/// marked (PNG bytes).
-pub fn pareto_chart(title: &str, pts: &[ParetoPoint]) -> Result<Vec<u8>, StudyError> {
+/// marked, and optionally a reference study's front beside it (hollow points, its own colour)
+/// (PNG bytes).
+pub fn pareto_chart(
+    title: &str,
+    pts: &[ParetoPoint],
+    reference: Option<&ReferenceFront>,
+) -> Result<Vec<u8>, StudyError> {
     render("pareto.png", |root| {
         let (mut t0, mut t1, mut c1) = (f64::INFINITY, 0.0f64, 0.0f64);
-        for p in pts {
-            t0 = t0.min(p.time);
-            t1 = t1.max(p.time);
-            c1 = c1.max(p.chamfer);
+        let all = pts
+            .iter()
+            .map(|p| (p.time, p.chamfer))
+            .chain(reference.iter().flat_map(|r| r.points.iter().copied()));
+        for (t, c) in all {
+            t0 = t0.min(t);
+            t1 = t1.max(t);
+            c1 = c1.max(c);
         }
         if !t0.is_finite() || t0 <= 0.0 {
             (t0, t1) = (1.0, 10.0);
@@ -311,19 +346,38 @@ pub fn pareto_chart(title: &str, pts: &[ParetoPoint]) -> Result<Vec<u8>, StudyEr
             .label_style((FONT, 14))
             .draw()
             .map_err(s)?;
-        let mut front: Vec<(f64, f64)> = pts
-            .iter()
-            .filter(|p| p.on_front)
-            .map(|p| (p.time, p.chamfer))
-            .collect();
-        front.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut stair = Vec::new();
-        for (i, &(t, c)) in front.iter().enumerate() {
-            if i > 0 {
-                stair.push((t, front[i - 1].1));
-            }
-            stair.push((t, c));
+        if let Some(r) = reference {
+            let orange = colour(1);
+            let front = r
+                .points
+                .iter()
+                .zip(&r.on_front)
+                .filter(|(_, &f)| f)
+                .map(|(&p, _)| p)
+                .collect();
+            chart
+                .draw_series(LineSeries::new(staircase(front), orange.stroke_width(2)))
+                .map_err(s)?
+                .label(format!("{} front", r.label))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], orange.stroke_width(2))
+                });
+            chart
+                .draw_series(
+                    r.points
+                        .iter()
+                        .map(|&p| Circle::new(p, 5, orange.stroke_width(2))),
+                )
+                .map_err(s)?
+                .label(format!("{} points", r.label))
+                .legend(move |(x, y)| Circle::new((x + 8, y), 5, orange.stroke_width(2)));
         }
+        let stair = staircase(
+            pts.iter()
+                .filter(|p| p.on_front)
+                .map(|p| (p.time, p.chamfer))
+                .collect(),
+        );
         let grey = RGBColor(0x88, 0x88, 0x88);
         chart
             .draw_series(LineSeries::new(stair, grey.stroke_width(2)))
@@ -468,7 +522,7 @@ mod tests {
                 on_front: false,
             },
         ];
-        let p = pareto_chart("p", &pts).unwrap();
+        let p = pareto_chart("p", &pts, None).unwrap();
         let img = decode(&p);
         let red = colour(3);
         assert!(
@@ -476,6 +530,17 @@ mod tests {
             "preset marker drawn"
         );
         // Degenerate input still draws (empty data).
-        pareto_chart("e", &[]).unwrap();
+        pareto_chart("e", &[], None).unwrap();
+        // A reference front adds its own colour, outside this study's points.
+        let reference = ReferenceFront {
+            label: "old build".into(),
+            points: vec![(2000.0, 2.5), (3000.0, 2.8)],
+            on_front: vec![true, false],
+        };
+        let orange = colour(1);
+        let is_orange = |q: &image::Rgb<u8>| q.0 == [orange.0, orange.1, orange.2];
+        assert!(!img.pixels().any(is_orange), "no reference, no orange");
+        let with = decode(&pareto_chart("p", &pts, Some(&reference)).unwrap());
+        assert!(with.pixels().any(is_orange), "the reference front is drawn");
     }
 }

@@ -25,7 +25,7 @@ mod paper;
 mod pareto;
 mod records;
 
-pub use pareto::pareto_front;
+pub use pareto::{pareto_front, read_reference_front};
 pub use records::{load_records, GeometryRecord, RunRecord};
 
 use super::grid::{arm_name, arm_title, Grid};
@@ -94,6 +94,16 @@ struct Summary {
 
 /// Collects the study in `dir` and writes the report files into `to` (created).
 pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
+    collect_with_reference(dir, to, None)
+}
+
+/// [`collect`], with another pareto study's front drawn beside this one's in `pareto.png`
+/// (`study collect DIR --reference-front OTHER`); ignored by grids other than `pareto`.
+pub fn collect_with_reference(
+    dir: &Path,
+    to: &Path,
+    reference: Option<&plot::ReferenceFront>,
+) -> Result<CollectSummary, StudyError> {
     let (plan, records) = load_records(dir)?;
     std::fs::create_dir_all(to).map_err(io_err(to))?;
     let lay = Layout::new(&plan, &records);
@@ -246,7 +256,7 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
             })
             .collect();
         let title = format!("accuracy against time ({})", lay.scenes.join(", "));
-        put("pareto.png", &plot::pareto_chart(&title, &pts)?)?;
+        put("pareto.png", &plot::pareto_chart(&title, &pts, reference)?)?;
     }
 
     Ok(CollectSummary {
