@@ -653,6 +653,15 @@ fn pareto_and_reduced_reports_from_known_numbers() {
     assert_eq!(&png[1..4], b"PNG");
     let md = std::fs::read_to_string(to.join("report.md")).unwrap();
     assert!(md.contains("## Accuracy against time"), "{md}");
+    // Another study's front beside this one's: the plot changes, the tables do not.
+    let reference = neus_aug::study::report::read_reference_front(&to, "old build").unwrap();
+    let with = tmp.path().join("with-ref");
+    neus_aug::study::collect_with_reference(&dir, &with, Some(&reference)).unwrap();
+    assert_ne!(std::fs::read(with.join("pareto.png")).unwrap(), png);
+    assert_eq!(
+        std::fs::read_to_string(with.join("pareto.csv")).unwrap(),
+        csv
+    );
 
     let dir = tmp.path().join("reduced");
     let o = StudyOptions::new(Grid::Reduced);
@@ -672,6 +681,14 @@ fn pareto_and_reduced_reports_from_known_numbers() {
         "{md}"
     );
     assert!(to.join("chamfer_vs_views.png").is_file());
+    // A reference front for a study that is not a pareto study is refused, not ignored.
+    let err = neus_aug::study::collect_with_reference(&dir, &to, Some(&reference))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("--reference-front") && err.contains("reduced"),
+        "{err}"
+    );
 }
 
 #[test]

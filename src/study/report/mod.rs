@@ -98,13 +98,25 @@ pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
 }
 
 /// [`collect`], with another pareto study's front drawn beside this one's in `pareto.png`
-/// (`study collect DIR --reference-front OTHER`); ignored by grids other than `pareto`.
+/// (`study collect DIR --reference-front OTHER`). A reference for a study of another grid is
+/// refused (there is no accuracy-against-time plot to draw it in).
 pub fn collect_with_reference(
     dir: &Path,
     to: &Path,
     reference: Option<&plot::ReferenceFront>,
 ) -> Result<CollectSummary, StudyError> {
     let (plan, records) = load_records(dir)?;
+    if let (Some(r), false) = (reference, plan::is_pareto(&plan)) {
+        return Err(StudyError::Option {
+            option: "--reference-front".into(),
+            value: r.label.clone(),
+            why: format!(
+                "{} holds a `{}` study; only a `pareto` study has a front to draw it beside",
+                dir.display(),
+                plan.options.grid.name()
+            ),
+        });
+    }
     std::fs::create_dir_all(to).map_err(io_err(to))?;
     let lay = Layout::new(&plan, &records);
     let rows = lay.rows();
