@@ -432,6 +432,13 @@ impl RunConfig {
                 "must be finite and > 0",
             ));
         }
+        if let Err(why) = self.model.render.view_dependence.check() {
+            return Err(invalid(
+                "model.render.view_dependence",
+                self.model.render.view_dependence,
+                why,
+            ));
+        }
         for (k, w) in self.model.loss.weights() {
             if let Err(why) = w.check() {
                 return Err(invalid(&format!("model.loss.{k}"), w, why));

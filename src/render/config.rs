@@ -40,6 +40,17 @@ pub struct RenderConfig {
     /// Parallel gradient shards; 0 = rayon's thread count. Fix it to reproduce bits across
     /// machines.
     pub shards: usize,
+    /// Scale of the view-direction terms (spherical-harmonic degrees 1–3) in the colour network's
+    /// input, as a [`Scheduled`] value (1: the reference's full view dependence). Below 1 early in
+    /// training, the colour network cannot give one surface point a different colour per view, so
+    /// a wrong surface (a lid over a concavity, a membrane across a hole) that shows what lies
+    /// behind it no longer fits every view and photometric consistency moves it; the ramp to 1
+    /// lets real view-dependent effects (highlights) back in later. The degree-0 term is constant
+    /// and kept. This project's own choice (issue 13, the `cup` lid), not a reference's; in spirit
+    /// the coarse-to-fine annealing of a positional encoding's bands (BARF, Lin et al. 2021; Nerfies,
+    /// Park et al. 2021), applied to the direction encoding. Queries after training use the
+    /// value at the last step.
+    pub view_dependence: Scheduled,
 }
 
 impl Default for RenderConfig {
@@ -56,6 +67,7 @@ impl Default for RenderConfig {
             max_train_num_rays: 8192,
             chunk_samples: 256,
             shards: 0,
+            view_dependence: Scheduled::Constant(1.0),
         }
     }
 }

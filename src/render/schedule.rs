@@ -111,6 +111,8 @@ pub struct Schedule {
     pub active_levels: usize,
     /// Loss weights.
     pub loss: LossWeights,
+    /// Scale of the colour network's view-direction terms (`RenderConfig::view_dependence`).
+    pub view_dependence: f32,
 }
 
 impl ModelConfig {
@@ -125,6 +127,7 @@ impl ModelConfig {
             },
             active_levels: self.field.hash_grid.active_levels(step),
             loss: self.loss.at(step),
+            view_dependence: self.render.view_dependence.at(step) as f32,
         }
     }
 
@@ -134,6 +137,7 @@ impl ModelConfig {
             cos_anneal: 1.0,
             active_levels: self.field.hash_grid.active_levels(step),
             loss: self.loss.at(step),
+            view_dependence: self.render.view_dependence.at(step) as f32,
         }
     }
 }

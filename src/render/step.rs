@@ -331,6 +331,7 @@ impl NeusModel {
     ) {
         let samples = ctx.samples;
         let (n, fdim, dc, app, inv_2eps) = (c.n, c.fdim, c.dc, c.app, c.inv_2eps);
+        let view = T::from_f32(ctx.sched.view_dependence);
         sc.sdf_grad.resize(n, [T::ZERO; 3]);
         sc.normal.resize(n, [T::ZERO; 3]);
         sc.color_in.resize(n * dc, T::ZERO);
@@ -357,6 +358,12 @@ impl NeusModel {
                 let row = &mut sc.color_in[i * dc..(i + 1) * dc];
                 row[..fdim].copy_from_slice(&sc.sdf_feature[i * fdim..(i + 1) * fdim]);
                 sh4(sc.dirs[i], &mut row[fdim..fdim + SH_DIM]);
+                if view != T::ONE {
+                    // Degrees 1–3 only: the degree-0 term is a constant.
+                    for v in &mut row[fdim + 1..fdim + SH_DIM] {
+                        *v = *v * view;
+                    }
+                }
                 row[fdim + SH_DIM..fdim + SH_DIM + 3].copy_from_slice(&nr);
                 if app.n_codes > 0 {
                     let a0 = fdim + SH_DIM + 3;
