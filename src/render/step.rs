@@ -361,7 +361,7 @@ impl NeusModel {
                 if view != T::ONE {
                     // Degrees 1–3 only: the degree-0 term is a constant.
                     for v in &mut row[fdim + 1..fdim + SH_DIM] {
-                        *v = *v * view;
+                        *v *= view;
                     }
                 }
                 row[fdim + SH_DIM..fdim + SH_DIM + 3].copy_from_slice(&nr);
