@@ -149,7 +149,7 @@ pub struct MeshConfig {
     /// Padding of the refined box, as a fraction of the coarse mesh's extent.
     pub pad_fraction: f32,
     /// Clean the mesh before writing and scoring it (`mesh::clean`: mask culling, then small
-    /// components). The raw marching-cubes mesh is kept as `mesh_raw.ply` when anything was
+    /// components, then enclosed ones). The raw marching-cubes mesh is kept as `mesh_raw.ply` when anything was
     /// removed.
     pub clean: bool,
     /// Remove components whose area is below this share of the largest component's (`[0, 1]`).
@@ -159,6 +159,8 @@ pub struct MeshConfig {
     pub clean_mask_cull: bool,
     /// Mask dilation before culling, pixels of the training images.
     pub clean_dilate_px: usize,
+    /// Remove components enclosed by a larger one (cavities no camera sees; `mesh::clean`).
+    pub clean_enclosed: bool,
 }
 
 impl Default for MeshConfig {
@@ -171,6 +173,7 @@ impl Default for MeshConfig {
             clean_min_area_share: 0.02,
             clean_mask_cull: true,
             clean_dilate_px: 4,
+            clean_enclosed: true,
         }
     }
 }

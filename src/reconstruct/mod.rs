@@ -543,6 +543,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 mask_cull: cfg.mesh.clean_mask_cull,
                 dilate_px: cfg.mesh.clean_dilate_px,
                 frustum_cull: cfg.mesh.clean_mask_cull,
+                remove_enclosed: cfg.mesh.clean_enclosed,
             },
         );
         (m, Some(rep))
