@@ -387,14 +387,7 @@ mod tests {
     use nalgebra::Matrix3;
 
     fn shape_mesh(name: &str, res: usize) -> TriMesh {
-        let s = Shape::named(name).unwrap();
-        let grid = GridSpec::cube([-1.0; 3], [1.0; 3], res);
-        marching_cubes(
-            &|p: &[[f32; 3]]| s.eval_batch(p),
-            &grid,
-            &McOptions::default(),
-        )
-        .unwrap()
+        mesh_of(Shape::named(name).unwrap(), res)
     }
 
     /// Slow reference: components by repeated flood fill over a face adjacency list.
@@ -543,13 +536,7 @@ mod tests {
     }
 
     fn mesh_of(shape: Shape, res: usize) -> TriMesh {
-        let grid = GridSpec::cube([-1.0; 3], [1.0; 3], res);
-        marching_cubes(
-            &|p: &[[f32; 3]]| shape.eval_batch(p),
-            &grid,
-            &McOptions::default(),
-        )
-        .unwrap()
+        shape.mesh_in_unit_cube(res)
     }
 
     fn merged(parts: &[TriMesh]) -> TriMesh {

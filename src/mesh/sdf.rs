@@ -103,6 +103,18 @@ impl Shape {
 
     /// Names accepted by [`Shape::named`].
     pub const NAMES: [&'static str; 4] = ["sphere", "torus", "box", "two-spheres"];
+
+    /// Marching cubes of this shape over `[-1, 1]³` with `res` points per axis (tests).
+    #[cfg(test)]
+    pub(crate) fn mesh_in_unit_cube(&self, res: usize) -> super::TriMesh {
+        let grid = super::GridSpec::cube([-1.0; 3], [1.0; 3], res);
+        super::marching_cubes(
+            &|p: &[[f32; 3]]| self.eval_batch(p),
+            &grid,
+            &super::McOptions::default(),
+        )
+        .unwrap()
+    }
 }
 
 /// Error of parsing a shape name.

@@ -272,17 +272,8 @@ mod tests {
 
     #[test]
     fn genus_of_marching_cubes_shapes() {
-        use crate::mesh::{marching_cubes, sdf::Shape, GridSpec, McOptions};
-        let mesh = |name: &str, res: usize| {
-            let s = Shape::named(name).unwrap();
-            let grid = GridSpec::cube([-1.0; 3], [1.0; 3], res);
-            marching_cubes(
-                &|p: &[[f32; 3]]| s.eval_batch(p),
-                &grid,
-                &McOptions::default(),
-            )
-            .unwrap()
-        };
+        use crate::mesh::sdf::Shape;
+        let mesh = |name: &str, res: usize| Shape::named(name).unwrap().mesh_in_unit_cube(res);
         for (name, g) in [("sphere", 0), ("torus", 1)] {
             let r = TopologyReport::of(&mesh(name, 48));
             assert_eq!(
