@@ -306,3 +306,88 @@ fn sdf_fit_gradient_matches_central_differences() {
     let fewer = g0.filter(|&i| grads[i] != 0.0).count();
     assert!(more > fewer, "{more} vs {fewer}");
 }
+
+/// The unseen-space prior's hinge (issue 13): `(w/n) Σ max(0, f(x))` of the SDF channel, its
+/// gradient against central differences in f64 with 2 of 4 levels active. Points whose `|f|` is
+/// within 1e-3 of the kink are dropped so no difference straddles it; both signs remain, and
+/// points with `f < 0` contribute nothing (the gradient of the inside points alone is zero).
+#[test]
+fn sdf_hinge_gradient_matches_central_differences() {
+    let model = NeusModel::new(tiny_config()).unwrap();
+    let s = seed();
+    let mut p: Vec<f64> = perturbed_params(&model, s)
+        .iter()
+        .map(|&v| v as f64)
+        .collect();
+    let mut rng = Pcg64Mcg::seed_from_u64(s + 11);
+    let active = 2;
+    let value = |p: &[f64], x: [f64; 3]| {
+        let mut g = vec![0.0; p.len()];
+        let abs = model.sdf_fit_loss_grad(p, &[x], &[0.0], active, &mut g);
+        let (pos, _) = model.sdf_hinge_loss_grad(p, &[x], 1.0, active, &mut g);
+        if pos > 0.0 {
+            abs
+        } else {
+            -abs
+        }
+    };
+    let mut pts: Vec<[f64; 3]> = Vec::new();
+    let (mut n_in, mut n_out) = (0, 0);
+    while pts.len() < 40 {
+        let x = [0; 3].map(|_| rng.random_range(-0.95..0.95));
+        let f = value(&p, x);
+        if f.abs() > 1e-3 {
+            if f > 0.0 {
+                n_out += 1;
+            } else {
+                n_in += 1;
+            }
+            pts.push(x);
+        }
+    }
+    assert!(n_in > 0 && n_out > 0, "{n_in} inside, {n_out} outside");
+    let w = 0.7;
+    let mut grads = vec![0.0; p.len()];
+    let (l, positive) = model.sdf_hinge_loss_grad(&p, &pts, w, active, &mut grads);
+    assert_eq!(positive, n_out);
+    let expect: f64 = pts.iter().map(|&x| value(&p, x).max(0.0)).sum::<f64>() * w / 40.0;
+    assert!(
+        (l - expect).abs() < 1e-12 * expect.max(1.0),
+        "{l} vs {expect}"
+    );
+    let loss = |p: &[f64]| {
+        let mut g = vec![0.0; p.len()];
+        model.sdf_hinge_loss_grad(p, &pts, w, active, &mut g).0
+    };
+    let mut fails = Vec::new();
+    for grp in model.layout.groups.clone() {
+        let r = grp.range();
+        let nonzero: Vec<usize> = r.clone().filter(|&i| grads[i] != 0.0).collect();
+        let fitted = grp.name == "hash_grid" || grp.name == "sdf_mlp";
+        assert_eq!(!nonzero.is_empty(), fitted, "group {}", grp.name);
+        let mut idx: Vec<usize> = (0..8).map(|_| rng.random_range(r.clone())).collect();
+        idx.extend((0..16.min(nonzero.len())).map(|_| nonzero[rng.random_range(0..nonzero.len())]));
+        for i in idx {
+            let fd = central_difference(&mut p, i, loss);
+            if (fd - grads[i]).abs() > 1e-9 + 1e-5 * fd.abs().max(grads[i].abs()) {
+                fails.push(format!(
+                    "{}[{}]: analytic {:e} fd {fd:e}",
+                    grp.name,
+                    i - r.start,
+                    grads[i]
+                ));
+            }
+        }
+    }
+    assert!(fails.is_empty(), "{}", fails.join("\n"));
+    // The inside points alone: no loss, no gradient.
+    let inside: Vec<[f64; 3]> = pts
+        .iter()
+        .copied()
+        .filter(|&x| value(&p, x) < 0.0)
+        .collect();
+    let mut g = vec![0.0; p.len()];
+    let (l_in, pos_in) = model.sdf_hinge_loss_grad(&p, &inside, w, active, &mut g);
+    assert_eq!((l_in, pos_in), (0.0, 0));
+    assert!(g.iter().all(|&v| v == 0.0));
+}

@@ -307,6 +307,16 @@ impl RunConfig {
         if let Some((key, value, why)) = t.init.invalid() {
             return Err(invalid(key, value, why));
         }
+        if let Some((key, value, why)) = t.unseen.invalid() {
+            return Err(invalid(key, value, why));
+        }
+        if t.unseen.enabled() && !self.data.masks {
+            return Err(invalid(
+                "train.unseen.weight",
+                t.unseen.weight,
+                "the unseen-space prior needs the masks' visual hull, and data.masks is false",
+            ));
+        }
         if t.init.kind == InitKind::VisualHull && !self.data.masks {
             return Err(invalid(
                 "train.init.kind",

@@ -86,6 +86,9 @@ pub struct TrainSummary {
     /// and for resumed runs (the start happened in the first process).
     #[serde(default)]
     pub hull_init: Option<HullInitSummary>,
+    /// The unseen-space prior at the last step (`train.unseen`); `null` when off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unseen_last: Option<crate::train::unseen::UnseenStep>,
 }
 
 /// What the visual-hull start did (`train::hull`), in world millimetres.

@@ -48,6 +48,7 @@ use crate::train::checkpoint::{self, CheckpointError, TrainState};
 use crate::train::data::{camera_rays, DataError};
 use crate::train::hull::{self, HullError, HullSdf, InitKind};
 use crate::train::metrics::{psnr, ssim};
+use crate::train::unseen::UnseenPrior;
 use crate::train::{TrainData, TrainError, Trainer};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -346,18 +347,34 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     // The visual-hull target, before anything is written: a hull the masks carve away entirely
     // is an input error, and `--force` must not have removed the old outputs for it.
     let all_masked = cfg.data.masks && masked_views.len() == train_idx.len();
-    let hull_target = match cfg.train.init.kind {
-        InitKind::Sphere => None,
-        InitKind::Auto if !all_masked => None,
+    let init_hull = match cfg.train.init.kind {
+        InitKind::Sphere => false,
+        InitKind::Auto if !all_masked => false,
         InitKind::VisualHull if !all_masked => {
             return Err(HullError::NoMasks("some training views have no mask").into())
         }
-        InitKind::Auto | InitKind::VisualHull => {
-            let (ic, r) = (&cfg.train.init, model.config.render.radius);
-            let inside = hull::carve(&masked_views, r, ic.resolution);
-            Some(HullSdf::from_occupancy(&inside, ic.resolution, r)?.smoothed(ic.smooth_voxels))
-        }
+        InitKind::Auto | InitKind::VisualHull => true,
     };
+    let unseen = cfg.train.unseen.enabled();
+    if unseen && !all_masked {
+        return Err(HullError::NoMasks(
+            "the unseen-space prior (train.unseen) needs one on every training view",
+        )
+        .into());
+    }
+    // The masks' visual hull, when the init or the prior needs it: the prior reads it as it is,
+    // the init fits its (optionally blurred) copy.
+    let hull = if init_hull || unseen {
+        let (ic, r) = (&cfg.train.init, model.config.render.radius);
+        let inside = hull::carve(&masked_views, r, ic.resolution);
+        Some(HullSdf::from_occupancy(&inside, ic.resolution, r)?)
+    } else {
+        None
+    };
+    let hull_target = hull
+        .as_ref()
+        .filter(|_| init_hull)
+        .map(|h| h.smoothed(cfg.train.init.smooth_voxels));
     timings.prepare = t.elapsed().as_secs_f64();
 
     // The output folder: lock it, look again (another process may have finished a run there
@@ -409,6 +426,13 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         cfg.seed,
         cfg.augment.seed ^ cfg.seed,
     );
+    if let Some(h) = hull.filter(|_| unseen) {
+        trainer = trainer.with_unseen_prior(UnseenPrior::new(
+            cfg.train.unseen.clone(),
+            h,
+            cameras.clone(),
+        ));
+    }
     let mut hull_init = None;
     let mut state: TrainState = match resumed {
         Some(s) => {
@@ -462,10 +486,18 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             say(quiet, format!("step {}: {why}", report.step));
         }
         let secs = t_loop.elapsed().as_secs_f64().max(1e-9);
+        let unseen_note = report.unseen.map_or(String::new(), |u| {
+            format!(
+                " unseen {:.1} % of cells, {}/{} points outside",
+                100.0 * u.unseen_share,
+                u.positive,
+                u.used
+            )
+        });
         progress.update(
             state.step,
             format!(
-                "loss {:.4} psnr {:.2} inv_s {:.0} rays/s {:.0}",
+                "loss {:.4} psnr {:.2} inv_s {:.0} rays/s {:.0}{unseen_note}",
                 report.out.total,
                 -10.0 * report.out.mse_all.max(1e-12).log10(),
                 report.out.inv_s,
@@ -504,6 +536,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         train_views: train_idx.len(),
         heldout_views: heldout.clone(),
         hull_init,
+        unseen_last: last.as_ref().and_then(|r| r.unseen),
     };
     say(
         quiet,

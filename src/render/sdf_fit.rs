@@ -1,11 +1,13 @@
-//! Regression of the SDF channel onto target values at points: the loss and its gradient that
-//! the visual-hull initialisation (`train::hull`) minimises before the first rendering step.
+//! Losses on the SDF channel at points, and their gradients: the regression onto target values
+//! that the visual-hull initialisation (`train::hull`) minimises before the first rendering
+//! step, and the hinge that the unseen-space prior (`train::unseen`) adds during training.
 //!
-//! The loss is the mean absolute error `L = (1/n) Σ_i |f(x_i) − t_i|` of the SDF network's channel
-//! 0 at points `x_i` (normalised space, inside the box `[-r, r]³`) against targets `t_i`
+//! The regression is the mean absolute error `L = (1/n) Σ_i |f(x_i) − t_i|` of the SDF network's
+//! channel 0 at points `x_i` (normalised space, inside the box `[-r, r]³`) against targets `t_i`
 //! (normalised units). L1, as IGR and DeepSDF fit signed distances (DeepSDF §4, clamped L1): a
-//! few far-off targets do not dominate the near-surface ones. Its gradient flows through the SDF
-//! network and the hash grid only; no other group is touched.
+//! few far-off targets do not dominate the near-surface ones. The hinge is
+//! `L = (w/n) Σ_i max(0, f(x_i))`: zero where the field already says "inside". Both gradients
+//! flow through the SDF network and the hash grid only; no other group is touched.
 
 use super::workspace::{split, split_mut};
 use super::NeusModel;
@@ -28,6 +30,57 @@ impl NeusModel {
         grads: &mut [T],
     ) -> f64 {
         assert_eq!(points.len(), targets.len(), "one target per point");
+        let inv_n = T::from_f64(1.0 / points.len().max(1) as f64);
+        self.sdf_point_loss_grad(params, points, active, grads, |i, f| {
+            let e = f - targets[i];
+            let d = if e > T::ZERO {
+                inv_n
+            } else if e < T::ZERO {
+                T::ZERO - inv_n
+            } else {
+                T::ZERO
+            };
+            (e.abs().to_f64(), d)
+        }) / points.len().max(1) as f64
+    }
+
+    /// `L = (w/n) Σ max(0, f(x_i))` over `points [n][3]`, with `active` hash levels: pushes the
+    /// SDF at the points to "inside" (≤ 0) and leaves points already inside alone. Adds `∂L/∂θ`
+    /// into `grads` (only the `hash_grid` and `sdf_mlp` groups are written); returns `L` (0 for no
+    /// points) and the number of points with `f > 0`. At `f = 0` the subgradient 0 is used.
+    pub fn sdf_hinge_loss_grad<T: Real>(
+        &self,
+        params: &[T],
+        points: &[[T; 3]],
+        weight: f64,
+        active: usize,
+        grads: &mut [T],
+    ) -> (f64, usize) {
+        let n = points.len().max(1) as f64;
+        let d = T::from_f64(weight / n);
+        let mut positive = 0;
+        let sum = self.sdf_point_loss_grad(params, points, active, grads, |_, f| {
+            if f > T::ZERO {
+                positive += 1;
+                (f.to_f64(), d)
+            } else {
+                (0.0, T::ZERO)
+            }
+        });
+        (weight * sum / n, positive)
+    }
+
+    /// The shared core: evaluates channel 0 of the SDF network at `points`, asks `per_point(i,
+    /// f_i)` for the point's loss term and `∂L/∂f_i`, back-propagates those into `grads` and
+    /// returns the sum of the terms. Single-threaded.
+    fn sdf_point_loss_grad<T: Real>(
+        &self,
+        params: &[T],
+        points: &[[T; 3]],
+        active: usize,
+        grads: &mut [T],
+        mut per_point: impl FnMut(usize, T) -> (f64, T),
+    ) -> f64 {
         assert_eq!(params.len(), self.n_params());
         assert_eq!(grads.len(), self.n_params());
         let n = points.len();
@@ -44,18 +97,11 @@ impl NeusModel {
         let mut tape = MlpTape::default();
         let mut d_f = vec![T::ZERO; n];
         let mut loss = 0f64;
-        let inv_n = T::from_f64(1.0 / n as f64);
         self.sdf_mlp
             .forward_hidden_with(p.sdf, &enc, n, &mut tape, |i, h| {
-                let e = self.sdf_mlp.output_channel(p.sdf, 0, h) - targets[i];
-                loss += e.abs().to_f64();
-                d_f[i] = if e > T::ZERO {
-                    inv_n
-                } else if e < T::ZERO {
-                    T::ZERO - inv_n
-                } else {
-                    T::ZERO
-                };
+                let (l, d) = per_point(i, self.sdf_mlp.output_channel(p.sdf, 0, h));
+                loss += l;
+                d_f[i] = d;
             });
         let g = split_mut(&self.layout, grads);
         let mut d_h = vec![T::ZERO; n * wh];
@@ -83,6 +129,6 @@ impl NeusModel {
             self.grid
                 .encode_backward(*x, r, active, &d_enc[i * d..(i + 1) * d], g.hash);
         }
-        loss / n as f64
+        loss
     }
 }

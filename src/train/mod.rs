@@ -11,6 +11,7 @@ pub mod loss;
 pub mod metrics;
 pub mod schedule;
 pub mod trainer;
+pub mod unseen;
 
 pub use adam::{AdamW, AdamWConfig, OptimError};
 pub use checkpoint::TrainState;

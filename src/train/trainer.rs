@@ -8,6 +8,7 @@ use super::data::{Batch, TrainData};
 use super::hull::InitConfig;
 use super::loss::{StepOutput, Targets, TrainStep};
 use super::schedule::LrSchedule;
+use super::unseen::{UnseenConfig, UnseenPrior, UnseenStep};
 use crate::render::model::{ModelError, NeusModel, RayBatch};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
@@ -30,6 +31,9 @@ pub struct TrainConfig {
     /// How the SDF starts (`[train.init]`; the sphere init by default, see [`super::hull`]).
     #[serde(skip_serializing_if = "InitConfig::is_default")]
     pub init: InitConfig,
+    /// The unseen-space prior (`[train.unseen]`; off by default, see [`super::unseen`]).
+    #[serde(skip_serializing_if = "UnseenConfig::is_default")]
+    pub unseen: UnseenConfig,
 }
 
 impl Default for TrainConfig {
@@ -41,6 +45,7 @@ impl Default for TrainConfig {
             checkpoint_every: 1000,
             max_consecutive_skips: 20,
             init: InitConfig::default(),
+            unseen: UnseenConfig::default(),
         }
     }
 }
@@ -78,6 +83,8 @@ pub struct StepReport {
     pub skipped: Option<String>,
     /// Whether the occupancy grid was updated before the step.
     pub occupancy_updated: bool,
+    /// What the unseen-space prior did (`None` when off or before its start step).
+    pub unseen: Option<UnseenStep>,
 }
 
 /// Independent random streams of a step.
@@ -87,6 +94,7 @@ enum Stream {
     Augment = 2,
     Jitter = 3,
     Occupancy = 4,
+    Unseen = 5,
 }
 
 /// A 64-bit seed for `(seed, step, stream)` (SplitMix64 finaliser over a combined key; Steele et
@@ -111,6 +119,7 @@ pub struct Trainer<'a> {
     grads: Vec<f32>,
     batch: Batch,
     consecutive_skips: u32,
+    unseen: Option<UnseenPrior>,
 }
 
 impl<'a> Trainer<'a> {
@@ -131,7 +140,15 @@ impl<'a> Trainer<'a> {
             grads: vec![0.0; model.n_params()],
             batch: Batch::default(),
             consecutive_skips: 0,
+            unseen: None,
         }
+    }
+
+    /// Adds the unseen-space prior (`config.unseen`, [`super::unseen`]) to every step from its
+    /// start step on.
+    pub fn with_unseen_prior(mut self, prior: UnseenPrior) -> Self {
+        self.unseen = Some(prior);
+        self
     }
 
     /// The state at step 0: seeded parameters, fresh moments, an all-occupied grid.
@@ -184,6 +201,16 @@ impl<'a> Trainer<'a> {
             rcfg.occupancy.enabled.then_some(&state.occ),
             step_seed(self.seed, step, Stream::Jitter),
         )?;
+        let unseen = self.unseen.as_mut().and_then(|u| {
+            u.add_grad(
+                model,
+                &state.params,
+                step,
+                sched.active_levels,
+                step_seed(self.seed, step, Stream::Unseen),
+                &mut self.grads,
+            )
+        });
         let lr_factor = self.config.lr.factor(step, self.config.iterations);
         let skipped = match state.adam.step_and_zero_grads(
             &mut state.params,
@@ -225,6 +252,7 @@ impl<'a> Trainer<'a> {
             lr_factor,
             skipped,
             occupancy_updated,
+            unseen,
         })
     }
 }
