@@ -25,9 +25,10 @@
 //! cells over the box every `update_every` steps: from every training camera, rays through a grid
 //! of pixels (spaced so that neighbouring rays are at most half a cell apart at the box centre's
 //! distance) march the cells in half-cell steps, and a cell is seen when some ray reaches it
-//! before its first cell deeper inside the object than `depth_voxels` cells (`f < −depth`). A
-//! part thinner than that lets rays through, so the space behind it counts as seen: the prior
-//! then stays out, the conservative side. (The occupancy grid does not serve here: its running
+//! before its first cell deeper inside the object than `depth_voxels` cells (`f < −depth`; by
+//! default 0, the first cell whose centre is inside). A part thinner than that lets rays
+//! through, so the space behind it counts as seen: the prior then stays out, the conservative
+//! side. (The occupancy grid does not serve here: its running
 //! max decays by 0.95 per visit, and in a `fast` torus run marching it the same way left no
 //! unseen cell inside the visual hull at step 700: the tube's inside was still marked occupied.)
 //!
@@ -64,7 +65,8 @@ pub struct UnseenConfig {
     pub resolution: usize,
     /// Steps between recomputations of the seen set (50).
     pub update_every: u64,
-    /// How deep inside (`f < −depth_voxels` cells) a ray stops seeing (0.5).
+    /// How deep inside (`f < −depth_voxels` cells) a ray stops seeing (0: at the first cell
+    /// whose centre is inside; on `torus` s0 a tunnel 3 mm under the seen surface survived 0.5).
     pub depth_voxels: f32,
     /// Radius (cells) of the morphological closing that picks the gaps to fill (2; 0: fill all
     /// unseen space inside the hull).
@@ -80,7 +82,7 @@ impl Default for UnseenConfig {
             margin_voxels: 1.0,
             resolution: 64,
             update_every: 50,
-            depth_voxels: 0.5,
+            depth_voxels: 0.0,
             close_voxels: 2.0,
         }
     }
