@@ -250,6 +250,40 @@ fn f32_path_agrees_with_f64_and_is_deterministic() {
     }
 }
 
+/// For a loss of the SDF channel at points: only the `hash_grid` and `sdf_mlp` groups get a
+/// gradient, and 8 random plus up to 16 nonzero entries of each group match central differences
+/// within `abs + 1e-5·relative`.
+fn check_sdf_group_gradients(
+    model: &NeusModel,
+    p: &mut [f64],
+    grads: &[f64],
+    loss: impl Fn(&[f64]) -> f64 + Copy,
+    abs: f64,
+    rng: &mut Pcg64Mcg,
+) {
+    let mut fails = Vec::new();
+    for grp in model.layout.groups.clone() {
+        let r = grp.range();
+        let nonzero: Vec<usize> = r.clone().filter(|&i| grads[i] != 0.0).collect();
+        let fitted = grp.name == "hash_grid" || grp.name == "sdf_mlp";
+        assert_eq!(!nonzero.is_empty(), fitted, "group {}", grp.name);
+        let mut idx: Vec<usize> = (0..8).map(|_| rng.random_range(r.clone())).collect();
+        idx.extend((0..16.min(nonzero.len())).map(|_| nonzero[rng.random_range(0..nonzero.len())]));
+        for i in idx {
+            let fd = central_difference(p, i, loss);
+            if (fd - grads[i]).abs() > abs + 1e-5 * fd.abs().max(grads[i].abs()) {
+                fails.push(format!(
+                    "{}[{}]: analytic {:e} fd {fd:e}",
+                    grp.name,
+                    i - r.start,
+                    grads[i]
+                ));
+            }
+        }
+    }
+    assert!(fails.is_empty(), "{}", fails.join("\n"));
+}
+
 /// The visual-hull fit's loss (issue 13): mean |f(x) − t| of the SDF channel, its gradient through
 /// the SDF network and the hash grid against central differences in f64, with 2 of the tiny
 /// grid's 4 levels active (as the fit runs with the levels of training step 0). Targets are far
@@ -277,27 +311,7 @@ fn sdf_fit_gradient_matches_central_differences() {
         let mut g = vec![0.0; p.len()];
         model.sdf_fit_loss_grad(p, &pts, &targets, active, &mut g)
     };
-    let mut fails = Vec::new();
-    for grp in model.layout.groups.clone() {
-        let r = grp.range();
-        let nonzero: Vec<usize> = r.clone().filter(|&i| grads[i] != 0.0).collect();
-        let fitted = grp.name == "hash_grid" || grp.name == "sdf_mlp";
-        assert_eq!(!nonzero.is_empty(), fitted, "group {}", grp.name);
-        let mut idx: Vec<usize> = (0..8).map(|_| rng.random_range(r.clone())).collect();
-        idx.extend((0..16.min(nonzero.len())).map(|_| nonzero[rng.random_range(0..nonzero.len())]));
-        for i in idx {
-            let fd = central_difference(&mut p, i, loss);
-            if (fd - grads[i]).abs() > 1e-8 + 1e-5 * fd.abs().max(grads[i].abs()) {
-                fails.push(format!(
-                    "{}[{}]: analytic {:e} fd {fd:e}",
-                    grp.name,
-                    i - r.start,
-                    grads[i]
-                ));
-            }
-        }
-    }
-    assert!(fails.is_empty(), "{}", fails.join("\n"));
+    check_sdf_group_gradients(&model, &mut p, &grads, loss, 1e-8, &mut rng);
     // Inactive levels (3 and 4) get nothing: all four levels reach more table entries.
     let g0 = model.layout.group("hash_grid").unwrap().range();
     let mut g4 = vec![0.0; p.len()];
@@ -359,27 +373,7 @@ fn sdf_hinge_gradient_matches_central_differences() {
         let mut g = vec![0.0; p.len()];
         model.sdf_hinge_loss_grad(p, &pts, w, active, &mut g).0
     };
-    let mut fails = Vec::new();
-    for grp in model.layout.groups.clone() {
-        let r = grp.range();
-        let nonzero: Vec<usize> = r.clone().filter(|&i| grads[i] != 0.0).collect();
-        let fitted = grp.name == "hash_grid" || grp.name == "sdf_mlp";
-        assert_eq!(!nonzero.is_empty(), fitted, "group {}", grp.name);
-        let mut idx: Vec<usize> = (0..8).map(|_| rng.random_range(r.clone())).collect();
-        idx.extend((0..16.min(nonzero.len())).map(|_| nonzero[rng.random_range(0..nonzero.len())]));
-        for i in idx {
-            let fd = central_difference(&mut p, i, loss);
-            if (fd - grads[i]).abs() > 1e-9 + 1e-5 * fd.abs().max(grads[i].abs()) {
-                fails.push(format!(
-                    "{}[{}]: analytic {:e} fd {fd:e}",
-                    grp.name,
-                    i - r.start,
-                    grads[i]
-                ));
-            }
-        }
-    }
-    assert!(fails.is_empty(), "{}", fails.join("\n"));
+    check_sdf_group_gradients(&model, &mut p, &grads, loss, 1e-9, &mut rng);
     // The inside points alone: no loss, no gradient.
     let inside: Vec<[f64; 3]> = pts
         .iter()
