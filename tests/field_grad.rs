@@ -129,6 +129,14 @@ fn zero_view_dependence_removes_the_direction_from_the_colour() {
 }
 
 /// Central difference (step 1e-6) of `loss` in parameter `i` of `p` (restored afterwards).
+/// [`perturbed_params`] widened to f64, for the f64 gradient checks.
+fn perturbed_params_f64(model: &NeusModel, seed: u64) -> Vec<f64> {
+    perturbed_params(model, seed)
+        .iter()
+        .map(|&v| v as f64)
+        .collect()
+}
+
 fn central_difference(p: &mut [f64], i: usize, loss: impl Fn(&[f64]) -> f64) -> f64 {
     let h = 1e-6;
     let old = p[i];
@@ -292,10 +300,7 @@ fn check_sdf_group_gradients(
 fn sdf_fit_gradient_matches_central_differences() {
     let model = NeusModel::new(tiny_config()).unwrap();
     let s = seed();
-    let mut p: Vec<f64> = perturbed_params(&model, s)
-        .iter()
-        .map(|&v| v as f64)
-        .collect();
+    let mut p = perturbed_params_f64(&model, s);
     let mut rng = Pcg64Mcg::seed_from_u64(s + 7);
     let pts: Vec<[f64; 3]> = (0..40)
         .map(|_| [0; 3].map(|_| rng.random_range(-0.95..0.95)))
@@ -329,10 +334,7 @@ fn sdf_fit_gradient_matches_central_differences() {
 fn sdf_hinge_gradient_matches_central_differences() {
     let model = NeusModel::new(tiny_config()).unwrap();
     let s = seed();
-    let mut p: Vec<f64> = perturbed_params(&model, s)
-        .iter()
-        .map(|&v| v as f64)
-        .collect();
+    let mut p = perturbed_params_f64(&model, s);
     let mut rng = Pcg64Mcg::seed_from_u64(s + 11);
     let active = 2;
     let value = |p: &[f64], x: [f64; 3]| {
