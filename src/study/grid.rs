@@ -350,6 +350,14 @@ pub fn pareto_variants(base: &RunConfig) -> Vec<(String, Preset, Vec<String>, bo
                     scale(base.train.lr.constant_steps),
                 ),
                 set("train.lr.warmup_steps", scale(base.train.lr.warmup_steps)),
+                // The occupancy grid forgets at the same pace per fraction of the run
+                // (`render::occupancy::decay_for_run`): `n` updates of `d^(it/n)` decay a cell as
+                // much as `it` updates of `d`.
+                set(
+                    "model.render.occupancy.ema_decay",
+                    (base.model.render.occupancy.ema_decay as f64).powf(it as f64 / n as f64)
+                        as f32,
+                ),
             ]
             .into_iter()
             .chain(step_schedule_sets(base, &scale))
@@ -680,6 +688,16 @@ mod tests {
             assert_eq!(w0, w1, "{cond}");
             assert_eq!(a1, (a0 as f64 * k).round() as u64, "{cond}");
             assert_eq!(b1, ((b0 as f64 * k).round() as u64).min(it), "{cond}");
+            // The occupancy grid has decayed by the same factor at the end of both runs.
+            // (Logarithms: 0.6^2000 underflows.)
+            let log_forget = |c: &RunConfig| {
+                c.train.iterations as f64 * (c.model.render.occupancy.ema_decay as f64).ln()
+            };
+            let (d0, d1) = (log_forget(&base), log_forget(&c));
+            assert!(
+                (d1 / d0 - 1.0).abs() < 1e-5,
+                "{cond}: log decay over the run {d1}, base {d0}"
+            );
         }
     }
 
