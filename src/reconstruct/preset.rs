@@ -103,9 +103,11 @@ impl Preset {
                     update_steps: 100,
                 });
                 // The grid forgets at the reference's pace per fraction of the run (0.599 per
-                // update, `decay_for_run`): torus grid genus 7/9 against 5/9, Chamfer mean 0.521
-                // against 0.650 mm; blob s0 0.680 → 0.590 mm (issue 13). `default` keeps 0.95
-                // until a run measures 0.88 there (1 h 45 min on 2 cores).
+                // update, `decay_for_run`). With the cap above, on the 9-run holes grids: torus
+                // genus 8/9 against 5/9, Chamfer mean 0.464 against 0.650 mm; double-torus 9/9
+                // against 8/9, 0.551 against 0.508 mm (the cap binds there); blob s0 0.654
+                // against 0.680 mm (results/geometry/occupancy-decay-2026-11-25, issue 13).
+                // `default` keeps 0.95 until a run measures 0.88 there (1 h 45 min on 2 cores).
                 model.render.occupancy.ema_decay = decay_for_run(train.iterations);
                 train.lr.constant_steps = 500;
                 train.lr.warmup_steps = 100;
