@@ -37,14 +37,22 @@ pub const REFERENCE_DECAY: f32 = 0.95;
 /// much as ten of the reference's (`fast`, 2000 steps: 0.599).
 ///
 /// Why (issue 13, `results/geometry/unseen-2026-11-24/`): with the unscaled 0.95 a cell whose
-/// alpha once reached 1 needs 135 visits to fall below the 0.001 threshold, at most one per update,
-/// so at least 2160 steps, longer than the whole `fast` run; at its last step 46 % of the torus grid was still marked occupied (the
-/// inside of the tube, the hole), so the samples went where no surface is. Scaled, at the `fast`
-/// preset, the torus grid's genus is right in 8 of 9 runs (5 of 9) and its Chamfer mean is
-/// 0.464 mm (0.650); double-torus 9 of 9 (8 of 9) (`results/geometry/occupancy-decay-2026-11-25/`).
+/// alpha once reached 1 needs 135 visits to fall below the 0.001 threshold, at most one per
+/// update, so at least 2160 steps, longer than the whole `fast` run; at its last step 46 % of the
+/// torus grid was still marked occupied (the inside of the tube, the hole), so the samples went
+/// where no surface is. Scaled, at the `fast` preset, the torus grid's genus is right in 8 of 9
+/// runs (5 of 9) and its Chamfer mean is 0.464 mm (0.650); double-torus 9 of 9 (8 of 9)
+/// (`results/geometry/occupancy-decay-2026-11-25/`).
 pub fn decay_for_run(iterations: u64) -> f32 {
-    let ratio = REFERENCE_STEPS as f64 / iterations.max(1) as f64;
-    (REFERENCE_DECAY as f64).powf(ratio) as f32
+    rescale_decay(REFERENCE_DECAY, REFERENCE_STEPS, iterations)
+}
+
+/// The decay per update that forgets over a run of `to_steps` as much as `decay` does over
+/// `from_steps` (same update interval): `decay^(from_steps / to_steps)`, in f64. Used by
+/// [`decay_for_run`] and by `study pareto`'s shortened runs.
+pub fn rescale_decay(decay: f32, from_steps: u64, to_steps: u64) -> f32 {
+    let ratio = from_steps as f64 / to_steps.max(1) as f64;
+    (decay as f64).powf(ratio) as f32
 }
 
 /// Settings of the occupancy grid.

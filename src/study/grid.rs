@@ -6,6 +6,7 @@
 use super::StudyError;
 use crate::augment::{AugMode, Degradation, DegradationKind};
 use crate::reconstruct::{Preset, RunConfig};
+use crate::render::occupancy::rescale_decay;
 use crate::render::Scheduled;
 use crate::sim;
 use serde::{Deserialize, Serialize};
@@ -350,13 +351,11 @@ pub fn pareto_variants(base: &RunConfig) -> Vec<(String, Preset, Vec<String>, bo
                     scale(base.train.lr.constant_steps),
                 ),
                 set("train.lr.warmup_steps", scale(base.train.lr.warmup_steps)),
-                // The occupancy grid forgets at the same pace per fraction of the run
-                // (`render::occupancy::decay_for_run`): `n` updates of `d^(it/n)` decay a cell as
-                // much as `it` updates of `d`.
+                // The occupancy grid forgets at the same pace per fraction of the run: `n`
+                // updates of `d^(it/n)` decay a cell as much as `it` updates of `d`.
                 set(
                     "model.render.occupancy.ema_decay",
-                    (base.model.render.occupancy.ema_decay as f64).powf(it as f64 / n as f64)
-                        as f32,
+                    rescale_decay(base.model.render.occupancy.ema_decay, it, n),
                 ),
             ]
             .into_iter()
