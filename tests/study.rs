@@ -635,7 +635,7 @@ fn pareto_and_reduced_reports_from_known_numbers() {
     let to = tmp.path().join("out");
     collect(&dir, &to).unwrap();
     let csv = std::fs::read_to_string(to.join("pareto.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 11, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 12, "{csv}");
     let row = |v: &str| {
         csv.lines()
             .find(|l| l.starts_with(&format!("{v},")))
@@ -716,7 +716,7 @@ fn pareto_mesh_variants_reuse_the_centre_training() {
         .unwrap();
     assert!(st.success(), "jobs.txt does not parse");
     let jobs = std::fs::read_to_string(dir.join("jobs.txt")).unwrap();
-    assert_eq!(jobs.lines().count(), 11);
+    assert_eq!(jobs.lines().count(), 12);
     assert_eq!(
         jobs.lines()
             .filter(|l| l.contains("cp runs/tiny-centre-s0/checkpoint.safetensors"))
@@ -743,7 +743,7 @@ fn pareto_mesh_variants_reuse_the_centre_training() {
         assert_ne!(m["mesh"]["vertices"], centre["mesh"]["vertices"], "{id}");
     }
     let csv = std::fs::read_to_string(dir.join("report/pareto.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 12, "{csv}");
+    assert_eq!(csv.lines().count(), 13, "{csv}");
     let t = |v: &str| -> f64 {
         let l = csv
             .lines()
@@ -757,5 +757,5 @@ fn pareto_mesh_variants_reuse_the_centre_training() {
         "a reused training still costs its training time"
     );
     assert!(dir.join("report/pareto.png").is_file());
-    assert_eq!(plan.runs.len(), 11);
+    assert_eq!(plan.runs.len(), 12);
 }

@@ -36,6 +36,7 @@ pub use metrics::{
 };
 pub use output::output_dir;
 use output::{check_output, remove_if_present};
+pub use preset::scale_run_length;
 use truth::{find_gt, GeometryVsTruth};
 
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};

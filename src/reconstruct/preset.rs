@@ -4,19 +4,23 @@
 use super::config::{DataConfig, EvalConfig, MeshConfig, RunConfig};
 use crate::augment::AugmentConfig;
 use crate::field::config::ProgressiveConfig;
-use crate::render::occupancy::decay_for_run;
+use crate::render::occupancy::{decay_for_run, rescale_decay};
 use crate::render::{ModelConfig, Scheduled};
 use crate::train::TrainConfig;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
+
+/// Training steps of the `quick` preset (`fast` has 2000).
+pub const QUICK_ITERATIONS: u64 = 1400;
 
 /// Named starting points. `quick`, `fast` and `default` are sized for a 2-core CPU; `paper`
 /// follows instant-nsr-pl `configs/neus-dtu-wmask.yaml` as closely as a CPU allows (hours).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
-    /// `fast` on half-size training images with half the samples per ray: about half of `fast`'s
-    /// time for a similar Chamfer distance on the default scene (issue 14).
+    /// `fast` on half-size training images with half the samples per ray, shortened to
+    /// [`QUICK_ITERATIONS`] steps: about 0.4× of `fast`'s time, under 1 mm on the default scene
+    /// (issue 14).
     Quick,
     /// Minutes on 2 cores: smaller hash table, fewer steps, coarser sampling.
     Fast,
@@ -124,7 +128,14 @@ impl Preset {
                 mesh.fine_res = 256;
             }
             Preset::Quick => {
-                let mut c = Preset::Fast.config();
+                // `fast` shortened to 1400 steps, every schedule kept at its fraction of the run
+                // (issue 14: time to mesh at ≤ 1.0 mm). Default scene, Zen 4: 0.669 / 0.757 mm at
+                // seeds 0 / 1 in 34 s, against 0.689 / 0.563 mm in 51 s at 2000 steps; 1100
+                // steps gave 0.794 mm at seed 0; torus seed 0 0.635 mm, genus 1
+                // (results/speed/zen4-2026-11-25-quick1400).
+                let mut c = scale_run_length(&Preset::Fast.config(), QUICK_ITERATIONS);
+                // The decay straight from the reference rather than rescaled from fast's f32.
+                c.model.render.occupancy.ema_decay = decay_for_run(QUICK_ITERATIONS);
                 // Measured on the default scene, Zen 3 (results/speed/avx2-zen3-2026-11-23-s128/):
                 // 128 samples per ray halve the cost of a step; half-size training images (a
                 // 1600×1200 DTU view becomes 800×600, the reference's own size, instant-nsr-pl
@@ -153,6 +164,37 @@ impl Preset {
             eval: EvalConfig::default(),
         }
     }
+}
+
+/// `c` with `iterations` training steps and every step-indexed schedule at the same fraction of
+/// the run: the cos-anneal end, the constant and warm-up phases of the learning rate, the
+/// coarse-to-fine hash levels (`model.field.hash_grid.progressive`), every ramped loss weight
+/// (e.g. [`delayed_curvature`]) and the occupancy grid's decay per update
+/// ([`rescale_decay`]: the grid forgets as much over the scaled run). A step `x` of `c` maps to
+/// `round(x · iterations / c.train.iterations)`, at most `iterations`; an update interval stays
+/// ≥ 1. The one place that scales a run's length: the `quick` preset and the pareto and smoke
+/// grids of `study` use it. The checkpoint interval is left as it is.
+pub fn scale_run_length(c: &RunConfig, iterations: u64) -> RunConfig {
+    let n = iterations.max(1);
+    let k = n as f64 / c.train.iterations.max(1) as f64;
+    let scale = |x: u64| ((x as f64 * k).round() as u64).min(n);
+    let mut s = c.clone();
+    s.train.iterations = n;
+    s.model.render.cos_anneal_end = scale(c.model.render.cos_anneal_end);
+    s.train.lr.constant_steps = scale(c.train.lr.constant_steps);
+    s.train.lr.warmup_steps = scale(c.train.lr.warmup_steps);
+    s.model.render.occupancy.ema_decay =
+        rescale_decay(c.model.render.occupancy.ema_decay, c.train.iterations, n);
+    if let Some(p) = &mut s.model.field.hash_grid.progressive {
+        p.start_step = scale(p.start_step);
+        p.update_steps = scale(p.update_steps).max(1);
+    }
+    for (_, w) in s.model.loss.weights_mut() {
+        if let Scheduled::Linear(s0, a, b, s1) = *w {
+            *w = Scheduled::Linear(scale(s0), a, b, scale(s1));
+        }
+    }
+    s
 }
 
 /// The curvature weight of every preset (issue 13): Neuralangelo's mean-|Laplacian| loss at
@@ -248,13 +290,92 @@ mod tests {
             q.data.downscale * q.data.render_downscale,
             f.data.downscale * f.data.render_downscale
         );
-        // Everything else is fast's.
+        // Everything else is fast's, shortened to QUICK_ITERATIONS steps.
+        let short = scale_run_length(&f, QUICK_ITERATIONS);
+        assert_eq!(q.train.iterations, QUICK_ITERATIONS);
         let mut back = q.clone();
         back.preset = Preset::Fast;
         back.model.render.num_samples_per_ray = f.model.render.num_samples_per_ray;
         back.data.downscale = f.data.downscale;
         back.data.render_downscale = f.data.render_downscale;
-        assert_eq!(back, f);
+        // The decay comes from the reference directly; the rescaled f32 may differ in its last bit.
+        let (dq, ds) = (
+            q.model.render.occupancy.ema_decay,
+            short.model.render.occupancy.ema_decay,
+        );
+        assert!((dq - ds).abs() <= 2.0 * f32::EPSILON, "{dq} {ds}");
+        back.model.render.occupancy.ema_decay = ds;
+        assert_eq!(back, short);
+    }
+
+    /// Scaling a run to its own length changes nothing; scaling it keeps every schedule at its
+    /// fraction of the run and the grid's total forgetting.
+    #[test]
+    fn scaling_the_run_length_keeps_every_schedule_at_its_fraction() {
+        for p in [Preset::Quick, Preset::Fast, Preset::Default, Preset::Paper] {
+            let c = p.config();
+            assert_eq!(scale_run_length(&c, c.train.iterations), c, "{p:?}");
+            for n in [1, 7, c.train.iterations / 3, c.train.iterations * 2] {
+                let s = scale_run_length(&c, n);
+                let k = n as f64 / c.train.iterations as f64;
+                assert_eq!(s.train.iterations, n);
+                let near = |a: u64, b: u64| {
+                    let want = ((b as f64 * k).round() as u64).min(n);
+                    assert_eq!(a, want, "{p:?} n={n}: {a} for {b}");
+                };
+                near(s.model.render.cos_anneal_end, c.model.render.cos_anneal_end);
+                near(s.train.lr.constant_steps, c.train.lr.constant_steps);
+                near(s.train.lr.warmup_steps, c.train.lr.warmup_steps);
+                let (ps, pc) = (
+                    s.model.field.hash_grid.progressive.clone().unwrap(),
+                    c.model.field.hash_grid.progressive.clone().unwrap(),
+                );
+                near(ps.start_step, pc.start_step);
+                assert!(ps.update_steps >= 1);
+                if (pc.update_steps as f64 * k).round() >= 1.0 {
+                    near(ps.update_steps, pc.update_steps);
+                }
+                for ((name, ws), (_, wc)) in s
+                    .model
+                    .loss
+                    .weights()
+                    .into_iter()
+                    .zip(c.model.loss.weights())
+                {
+                    match (ws, wc) {
+                        (Scheduled::Linear(a0, v0, v1, a1), Scheduled::Linear(b0, u0, u1, b1)) => {
+                            near(a0, b0);
+                            near(a1, b1);
+                            assert_eq!((v0, v1), (u0, u1), "{name}");
+                        }
+                        (ws, wc) => assert_eq!(ws, wc, "{name}"),
+                    }
+                }
+                // ln(decay) × updates is the same (relative 1e-5: the decay is an f32).
+                let forget = |c: &RunConfig| {
+                    c.train.iterations as f64 * (c.model.render.occupancy.ema_decay as f64).ln()
+                };
+                // (Only where the f32 decay has not underflowed: 0.95^(20000/7) has.)
+                if s.model.render.occupancy.ema_decay > 1e-6 {
+                    let (a, b) = (forget(&s), forget(&c));
+                    assert!((a / b - 1.0).abs() < 1e-5, "{p:?} n={n}: {a} {b}");
+                }
+                // Nothing else moves.
+                let mut back = s.clone();
+                back.train = c.train.clone();
+                back.model.render.cos_anneal_end = c.model.render.cos_anneal_end;
+                back.model.render.occupancy.ema_decay = c.model.render.occupancy.ema_decay;
+                back.model.field.hash_grid.progressive =
+                    c.model.field.hash_grid.progressive.clone();
+                back.model.loss = c.model.loss.clone();
+                let mut c_train = c.train.clone();
+                c_train.iterations = s.train.iterations;
+                c_train.lr.constant_steps = s.train.lr.constant_steps;
+                c_train.lr.warmup_steps = s.train.lr.warmup_steps;
+                assert_eq!(s.train, c_train, "{p:?} n={n}");
+                assert_eq!(back, c, "{p:?} n={n}");
+            }
+        }
     }
 
     #[test]

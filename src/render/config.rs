@@ -127,6 +127,17 @@ impl LossConfig {
             ("curvature", self.curvature),
         ]
     }
+
+    /// [`LossConfig::weights`], mutable (same keys, same order).
+    pub fn weights_mut(&mut self) -> [(&'static str, &mut Scheduled); 5] {
+        [
+            ("rgb_l1", &mut self.rgb_l1),
+            ("rgb_mse", &mut self.rgb_mse),
+            ("eikonal", &mut self.eikonal),
+            ("mask", &mut self.mask),
+            ("curvature", &mut self.curvature),
+        ]
+    }
 }
 
 impl Default for LossConfig {

@@ -5,8 +5,7 @@
 
 use super::StudyError;
 use crate::augment::{AugMode, Degradation, DegradationKind};
-use crate::reconstruct::{Preset, RunConfig};
-use crate::render::occupancy::rescale_decay;
+use crate::reconstruct::{scale_run_length, Preset, RunConfig};
 use crate::render::Scheduled;
 use crate::sim;
 use serde::{Deserialize, Serialize};
@@ -94,7 +93,7 @@ impl Grid {
     }
 
     /// Seeds when `--seeds` is not given: 3 for the paper's grids (the minimum), 1 for
-    /// `pareto` (eleven configurations; timings matter more than seeds there), 2 for `smoke`.
+    /// `pareto` (twelve configurations; timings matter more than seeds there), 2 for `smoke`.
     pub fn default_seeds(self) -> u32 {
         match self {
             Grid::Pareto => 1,
@@ -304,25 +303,30 @@ fn set(key: &str, value: impl std::fmt::Display) -> String {
     format!("{key}={value}")
 }
 
-/// The `--set`s that keep every other step-indexed schedule of `base` at the same fraction of a
-/// run whose length is scaled (`scale` maps a step of `base` to the scaled run): the
-/// coarse-to-fine hash levels (`model.field.hash_grid.progressive`) and every ramped loss weight
-/// (e.g. the presets' delayed curvature, `[n/2, 0, 5e-4, 3n/5]`). Without them a shortened run
-/// would end before its finest levels and its curvature turn on.
-fn step_schedule_sets(base: &RunConfig, scale: &dyn Fn(u64) -> u64) -> Vec<String> {
-    let mut v = Vec::new();
-    if let Some(p) = &base.model.field.hash_grid.progressive {
+/// The `--set`s that turn a run of `base` into one of `iterations` steps with every step-indexed
+/// schedule at the same fraction of the run ([`scale_run_length`]: cos-anneal end, learning-rate
+/// phases, coarse-to-fine hash levels, ramped loss weights, occupancy decay). Without them a
+/// shortened run would end before its finest levels and its curvature turn on.
+fn run_length_sets(base: &RunConfig, iterations: u64) -> Vec<String> {
+    let s = scale_run_length(base, iterations);
+    let mut v = vec![
+        set("train.iterations", s.train.iterations),
+        set("model.render.cos_anneal_end", s.model.render.cos_anneal_end),
+        set("train.lr.constant_steps", s.train.lr.constant_steps),
+        set("train.lr.warmup_steps", s.train.lr.warmup_steps),
+        set(
+            "model.render.occupancy.ema_decay",
+            s.model.render.occupancy.ema_decay,
+        ),
+    ];
+    if let Some(p) = &s.model.field.hash_grid.progressive {
         let prefix = "model.field.hash_grid.progressive";
-        v.push(set(&format!("{prefix}.start_step"), scale(p.start_step)));
-        v.push(set(
-            &format!("{prefix}.update_steps"),
-            scale(p.update_steps).max(1),
-        ));
+        v.push(set(&format!("{prefix}.start_step"), p.start_step));
+        v.push(set(&format!("{prefix}.update_steps"), p.update_steps));
     }
-    for (name, w) in base.model.loss.weights() {
-        if let Scheduled::Linear(s0, a, b, s1) = w {
-            let scaled = Scheduled::Linear(scale(s0), a, b, scale(s1));
-            v.push(set(&format!("model.loss.{name}"), scaled));
+    for (name, w) in s.model.loss.weights() {
+        if let Scheduled::Linear(..) = w {
+            v.push(set(&format!("model.loss.{name}"), w));
         }
     }
     v
@@ -336,31 +340,10 @@ pub fn pareto_variants(base: &RunConfig) -> Vec<(String, Preset, Vec<String>, bo
     let it = base.train.iterations;
     for k in [0.125, 0.25, 0.5, 2.0] {
         let n = ((it as f64 * k).round() as u64).max(1);
-        let scale = |x: u64| ((x as f64 * k).round() as u64).min(n);
         v.push((
             format!("iterations={n}"),
             base.preset,
-            vec![
-                set("train.iterations", n),
-                set(
-                    "model.render.cos_anneal_end",
-                    scale(base.model.render.cos_anneal_end),
-                ),
-                set(
-                    "train.lr.constant_steps",
-                    scale(base.train.lr.constant_steps),
-                ),
-                set("train.lr.warmup_steps", scale(base.train.lr.warmup_steps)),
-                // The occupancy grid forgets at the same pace per fraction of the run: `n`
-                // updates of `d^(it/n)` decay a cell as much as `it` updates of `d`.
-                set(
-                    "model.render.occupancy.ema_decay",
-                    rescale_decay(base.model.render.occupancy.ema_decay, it, n),
-                ),
-            ]
-            .into_iter()
-            .chain(step_schedule_sets(base, &scale))
-            .collect(),
+            run_length_sets(base, n),
             false,
         ));
     }
@@ -389,7 +372,7 @@ pub fn pareto_variants(base: &RunConfig) -> Vec<(String, Preset, Vec<String>, bo
             true,
         ));
     }
-    for p in [Preset::Fast, Preset::Default] {
+    for p in [Preset::Quick, Preset::Fast, Preset::Default] {
         if p != base.preset {
             v.push((format!("preset={}", p.name()), p, vec![], false));
         }
@@ -464,27 +447,15 @@ pub fn expand(opts: &StudyOptions, base: &RunConfig) -> Vec<RunDraft> {
             })
             .collect(),
         Grid::Smoke => {
-            let k = 0.1;
-            let it = ((base.train.iterations as f64 * k).round() as u64).max(1);
-            let scale = |x: u64| ((x as f64 * k).round() as u64).min(it);
+            let it = ((base.train.iterations as f64 * 0.1).round() as u64).max(1);
+            let mut sets = run_length_sets(base, it);
+            sets.push(set("mesh.fine_res", (base.mesh.fine_res / 2).max(2)));
             vec![(
                 format!("iterations={it}"),
                 p,
                 None,
                 None,
-                vec![
-                    set("train.iterations", it),
-                    set(
-                        "model.render.cos_anneal_end",
-                        scale(base.model.render.cos_anneal_end),
-                    ),
-                    set(
-                        "train.lr.constant_steps",
-                        scale(base.train.lr.constant_steps),
-                    ),
-                    set("train.lr.warmup_steps", scale(base.train.lr.warmup_steps)),
-                    set("mesh.fine_res", (base.mesh.fine_res / 2).max(2)),
-                ],
+                sets,
                 false,
                 vec![AugMode::None, AugMode::Sia],
             )]
@@ -626,6 +597,7 @@ mod tests {
                 "samples=512",
                 "mc=128",
                 "mc=512",
+                "preset=quick",
                 "preset=default"
             ]
         );
