@@ -15,8 +15,8 @@ fn fma32(a: f32, b: f32, c: f32) -> f32 {
 
 /// `e^x` for `x ≤ 0` (inputs above 0 are treated as 0, NaN and anything below −87 as −87, which
 /// gives ≈1.6e-38): `e^x = 2^{−n}·2^f` with `n = round(−x·log₂e)` (the float-add rounding trick,
-/// no conversion instruction), `f = n + x·log₂e ∈ [−½, ½]` from a two-part `log₂e` (so `f` is
-/// accurate to ~1e-8 even at `x = −87`), `2^f` a degree-5 polynomial (Chebyshev fit on
+/// no conversion instruction), `f = n + x·log₂e ∈ [−½, ½]` ([`reduced_exponent`], so `f` is
+/// accurate to ~3e-8 even at `x = −87`), `2^f` a degree-5 polynomial (Chebyshev fit on
 /// `[−½, ½]`, fit error 7.9e-8) in Estrin form (three FMA levels instead of five), and `2^{−n}`
 /// put into the exponent bits. Relative error below 5e-7 on `[−87, 0]` (tested; ≈2e-7 seen).
 #[inline(always)]
@@ -40,8 +40,7 @@ pub fn exp_nonpos_f32(x: f32) -> f32 {
     let t = -(x.max(-87.0).min(0.0));
     let shifted = fma32(t, LOG2E_HI, ROUND);
     let n = shifted - ROUND;
-    // f = n − t·log₂e, the product of the two-part constant taken exactly by the FMAs.
-    let f = fma32(-t, LOG2E_LO, fma32(-t, LOG2E_HI, n));
+    let f = reduced_exponent(t, n, LOG2E_HI, LOG2E_LO);
     let f2 = f * f;
     let p = fma32(
         fma32(fma32(C[5], f, C[4]), f2, fma32(C[3], f, C[2])),
@@ -52,6 +51,31 @@ pub fn exp_nonpos_f32(x: f32) -> f32 {
     // `shifted`; shifting them into the exponent field drops the rest.
     let scale = f32::from_bits((127u32 << 23).wrapping_sub(shifted.to_bits() << 23));
     p * scale
+}
+
+/// `f = n − t·log₂e` for `t ∈ [0, 87]` and the integer `n = round(t·log₂e)` (so `|f| ≲ ½`), to
+/// about 3e-8 absolute. With FMA (x86 `fma`; every aarch64 core) the product of the two-part
+/// `log₂e = hi + lo` is taken exactly by the fused operations. Without it (x86-64 below v3) that
+/// product would be rounded (absolute error up to `87·log₂e·6e-8 ≈ 7.5e-6` in `f`, 3e-6 relative
+/// in `e^x`, found by the x86-64-v2 run of `scripts/portable_check.sh`), so the reduction is
+/// Cody–Waite's in the natural base (Cody & Waite, *Software Manual for the Elementary
+/// Functions*, 1980, ch. 6): `r = t − n·ln2` with `ln2 = C1 + C2`, `C1 = 355/512` having 9
+/// significant bits, so `n·C1` (`n ≤ 126`) is exact and so is, nearly always, `t − n·C1`; then
+/// `f = −r·log₂e` with one rounding.
+#[inline(always)]
+fn reduced_exponent(t: f32, n: f32, log2e_hi: f32, log2e_lo: f32) -> f32 {
+    #[cfg(any(target_feature = "fma", target_arch = "aarch64"))]
+    {
+        fma32(-t, log2e_lo, fma32(-t, log2e_hi, n))
+    }
+    #[cfg(not(any(target_feature = "fma", target_arch = "aarch64")))]
+    {
+        const LN2_C1: f32 = 0.693_359_4; // 355/512
+        const LN2_C2: f32 = -2.121_944_4e-4; // ln 2 − 355/512
+        let _ = log2e_lo;
+        let r = (t - n * LN2_C1) - n * LN2_C2;
+        -r * log2e_hi
+    }
 }
 
 /// `ln(1 + u)` for `u ∈ [0, 1]`: `u·P(u)` with `P` the degree-8 Chebyshev fit of `ln(1+u)/u`

@@ -175,11 +175,13 @@ macro_rules! impl_real {
             }
             #[inline(always)]
             fn fma(self, a: Self, b: Self) -> Self {
-                #[cfg(target_feature = "fma")]
+                // Every aarch64 core has fused multiply-add (`fmadd`), but Rust names no `fma`
+                // target feature there.
+                #[cfg(any(target_feature = "fma", target_arch = "aarch64"))]
                 {
                     self.mul_add(a, b)
                 }
-                #[cfg(not(target_feature = "fma"))]
+                #[cfg(not(any(target_feature = "fma", target_arch = "aarch64")))]
                 {
                     self * a + b
                 }
