@@ -16,14 +16,11 @@ fn fma32(a: f32, b: f32, c: f32) -> f32 {
 /// `e^x` for `x ≤ 0` (inputs above 0 are treated as 0, NaN and anything below −87 as −87, which
 /// gives ≈1.6e-38): `e^x = 2^{−n}·2^f` with `n = round(−x·log₂e)` (the float-add rounding trick,
 /// no conversion instruction), `f = n + x·log₂e ∈ [−½, ½]` ([`reduced_exponent`], so `f` is
-/// accurate to ~3e-8 even at `x = −87`), `2^f` a degree-5 polynomial (Chebyshev fit on
+/// accurate to 5e-8 even at `x = −87`), `2^f` a degree-5 polynomial (Chebyshev fit on
 /// `[−½, ½]`, fit error 7.9e-8) in Estrin form (three FMA levels instead of five), and `2^{−n}`
 /// put into the exponent bits. Relative error below 5e-7 on `[−87, 0]` (tested; ≈2e-7 seen).
 #[inline(always)]
 pub fn exp_nonpos_f32(x: f32) -> f32 {
-    // The `f32` rounding of log₂e; `LOG2E_LO` is the rest.
-    const LOG2E_HI: f32 = std::f32::consts::LOG2_E;
-    const LOG2E_LO: f32 = 1.925_963e-8;
     // 1.5·2²³: adding it to a value in [0, 2²²) rounds that value to an integer, which lands in
     // the low mantissa bits of the sum.
     const ROUND: f32 = 12_582_912.0;
@@ -40,7 +37,7 @@ pub fn exp_nonpos_f32(x: f32) -> f32 {
     let t = -(x.max(-87.0).min(0.0));
     let shifted = fma32(t, LOG2E_HI, ROUND);
     let n = shifted - ROUND;
-    let f = reduced_exponent(t, n, LOG2E_HI, LOG2E_LO);
+    let f = reduced_exponent(t, n);
     let f2 = f * f;
     let p = fma32(
         fma32(fma32(C[5], f, C[4]), f2, fma32(C[3], f, C[2])),
@@ -53,29 +50,36 @@ pub fn exp_nonpos_f32(x: f32) -> f32 {
     p * scale
 }
 
+/// The `f32` rounding of log₂e; [`LOG2E_LO`] is the rest.
+const LOG2E_HI: f32 = std::f32::consts::LOG2_E;
+const LOG2E_LO: f32 = 1.925_963e-8;
+
 /// `f = n − t·log₂e` for `t ∈ [0, 87]` and the integer `n = round(t·log₂e)` (so `|f| ≲ ½`), to
-/// about 3e-8 absolute. With FMA (x86 `fma`; every aarch64 core) the product of the two-part
-/// `log₂e = hi + lo` is taken exactly by the fused operations. Without it (x86-64 below v3) that
-/// product would be rounded (absolute error up to `87·log₂e·6e-8 ≈ 7.5e-6` in `f`, 3e-6 relative
-/// in `e^x`, found by the x86-64-v2 run of `scripts/portable_check.sh`), so the reduction is
-/// Cody–Waite's in the natural base (Cody & Waite, *Software Manual for the Elementary
-/// Functions*, 1980, ch. 6): `r = t − n·ln2` with `ln2 = C1 + C2`, `C1 = 355/512` having 9
-/// significant bits, so `n·C1` (`n ≤ 126`) is exact and so is, nearly always, `t − n·C1`; then
-/// `f = −r·log₂e` with one rounding.
+/// within 5e-8 absolute (tested: 3.0e-8 with FMA, 4.4e-8 without). With FMA
+/// ([`crate::field::HAS_FMA`]) the product of the two-part `log₂e = hi + lo` is taken exactly by
+/// the fused operations. Without it (x86-64 below v3) that product would be rounded (absolute
+/// error up to `87·log₂e·6e-8 ≈ 7.5e-6` in `f`, 3e-6 relative in `e^x`, found by the x86-64-v2
+/// run of `scripts/portable_check.sh`), so [`reduced_exponent_cody_waite`] is used there.
 #[inline(always)]
-fn reduced_exponent(t: f32, n: f32, log2e_hi: f32, log2e_lo: f32) -> f32 {
-    #[cfg(any(target_feature = "fma", target_arch = "aarch64"))]
-    {
-        fma32(-t, log2e_lo, fma32(-t, log2e_hi, n))
+fn reduced_exponent(t: f32, n: f32) -> f32 {
+    if crate::field::HAS_FMA {
+        fma32(-t, LOG2E_LO, fma32(-t, LOG2E_HI, n))
+    } else {
+        reduced_exponent_cody_waite(t, n)
     }
-    #[cfg(not(any(target_feature = "fma", target_arch = "aarch64")))]
-    {
-        const LN2_C1: f32 = 0.693_359_4; // 355/512
-        const LN2_C2: f32 = -2.121_944_4e-4; // ln 2 − 355/512
-        let _ = log2e_lo;
-        let r = (t - n * LN2_C1) - n * LN2_C2;
-        -r * log2e_hi
-    }
+}
+
+/// [`reduced_exponent`] without fused operations: Cody–Waite's reduction in the natural base
+/// (Cody & Waite, *Software Manual for the Elementary Functions*, 1980, ch. 6),
+/// `r = t − n·ln2` with `ln2 = C1 + C2`, `C1 = 355/512` having 9 significant bits, so `n·C1`
+/// (`n ≤ 126`) is exact and so is, nearly always, `t − n·C1`; then `f = −r·log₂e` with one
+/// rounding. Tested on every build against `f64`.
+#[inline(always)]
+fn reduced_exponent_cody_waite(t: f32, n: f32) -> f32 {
+    const LN2_C1: f32 = 0.693_359_4; // 355/512
+    const LN2_C2: f32 = -2.121_944_4e-4; // ln 2 − 355/512
+    let r = (t - n * LN2_C1) - n * LN2_C2;
+    -r * LOG2E_HI
 }
 
 /// `ln(1 + u)` for `u ∈ [0, 1]`: `u·P(u)` with `P` the degree-8 Chebyshev fit of `ln(1+u)/u`
@@ -198,6 +202,27 @@ mod tests {
         // PyTorch's threshold form agrees: above βz = 20 softplus is z.
         assert!((softplus_f64(0.5, 100.0).0 - 0.5).abs() < 1e-20);
         assert!(softplus_f32(-10.0, 100.0).0 < 1e-37);
+    }
+
+    /// Both range reductions of [`exp_nonpos_f32`] against `f64` over `t ∈ [0, 87]`: the one
+    /// this build uses and the Cody–Waite one of builds without FMA, which is thus tested on
+    /// every build (the x86-64-v2 run of `scripts/portable_check.sh` tests it in place).
+    #[test]
+    fn range_reductions_are_accurate_with_and_without_fma() {
+        let mut worst = [0f64; 2];
+        for i in 0..=870_000 {
+            let t = (i as f64 * 1e-4) as f32;
+            let shifted = t * LOG2E_HI + 12_582_912.0;
+            let n = shifted - 12_582_912.0;
+            let want = n as f64 - t as f64 * std::f64::consts::LOG2_E;
+            assert!(want.abs() < 0.51, "t {t}: n {n} is not round(t·log₂e)");
+            worst[0] = worst[0].max((reduced_exponent(t, n) as f64 - want).abs());
+            worst[1] = worst[1].max((reduced_exponent_cody_waite(t, n) as f64 - want).abs());
+        }
+        assert!(
+            worst.iter().all(|&w| w < 5e-8),
+            "absolute errors of f (this build, Cody–Waite): {worst:?}"
+        );
     }
 
     /// [`softplus_f32`] against the `f64` standard-library softplus of the same `f32` input over

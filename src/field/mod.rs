@@ -28,6 +28,12 @@ pub use mlp::{Activation, Mlp};
 pub use params::{ParamGroup, ParamLayout};
 
 use std::fmt::Debug;
+
+/// Whether this build fuses multiply-add in hardware: x86 with the `fma` target feature
+/// (x86-64-v3 and up) and every aarch64 core (`fmadd`; Rust names no `fma` feature there). It
+/// chooses [`Real::fma`]'s form and the range reduction of [`fastmath::exp_nonpos_f32`]; being a
+/// constant, the branch not taken is compiled out.
+pub const HAS_FMA: bool = cfg!(any(target_feature = "fma", target_arch = "aarch64"));
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
 /// Floating-point scalar the network math is generic over: `f32` (training, inference) or `f64`
@@ -175,14 +181,9 @@ macro_rules! impl_real {
             }
             #[inline(always)]
             fn fma(self, a: Self, b: Self) -> Self {
-                // Every aarch64 core has fused multiply-add (`fmadd`), but Rust names no `fma`
-                // target feature there.
-                #[cfg(any(target_feature = "fma", target_arch = "aarch64"))]
-                {
+                if HAS_FMA {
                     self.mul_add(a, b)
-                }
-                #[cfg(not(any(target_feature = "fma", target_arch = "aarch64")))]
-                {
+                } else {
                     self * a + b
                 }
             }
