@@ -5,7 +5,7 @@ use neus_aug::reconstruct::Preset;
 use neus_aug::render::NeusModel;
 use neus_aug::scene::{Camera, GrayImage, LoadOptions, Scene};
 use neus_aug::sim;
-use neus_aug::train::hull::{carve, fit, HullSdf, InitConfig, InitKind};
+use neus_aug::train::hull::{carve, fit, sphere_cover, HullSdf, InitConfig, InitKind};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -44,7 +44,8 @@ fn hull_holds_the_torus_keeps_its_hole_open_and_the_fit_takes_its_sign() {
         .map(|v| (&v.camera, v.mask.as_ref().unwrap()))
         .collect();
     let (res, r) = (64usize, 1.0f32);
-    let hull = HullSdf::from_occupancy(&carve(&views, r, res), res, r).unwrap();
+    let inside = carve(&views, r, res);
+    let hull = HullSdf::from_occupancy(&inside, res, r).unwrap();
     let h = hull.voxel();
     // Every true surface point lies inside the hull, or within a voxel of its surface.
     let outside = truth.iter().filter(|&&p| hull.at(p) > h).count();
@@ -59,6 +60,18 @@ fn hull_holds_the_torus_keeps_its_hole_open_and_the_fit_takes_its_sign() {
     let c = [0, 1, 2].map(|a| truth.iter().map(|p| p[a]).sum::<f32>() / n);
     assert!(hull.at(c) > 2.0 * h, "hole centre {c:?}: {}", hull.at(c));
     assert!(hull.inside_share() < 0.2, "{}", hull.inside_share());
+    // The hole takes the middle of the init sphere: `sphere_or_hull` starts this torus from
+    // the hull.
+    let cover = sphere_cover(
+        &inside,
+        res,
+        r,
+        Preset::Fast.config().model.field.sdf.sphere_init_radius,
+    );
+    assert!(
+        cover < InitConfig::default().sphere_cover_min,
+        "cover {cover}"
+    );
 
     // The fit: from the sphere init to the hull's sign at points away from its surface.
     let cfg = Preset::Fast.config();

@@ -86,6 +86,11 @@ pub struct TrainSummary {
     /// and for resumed runs (the start happened in the first process).
     #[serde(default)]
     pub hull_init: Option<HullInitSummary>,
+    /// `train.init.kind = "sphere_or_hull"`: the share of the init sphere's volume inside the
+    /// masks' visual hull, which chose the start (`hull_init` is set when the hull was taken);
+    /// absent for the other kinds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sphere_cover: Option<f64>,
     /// The unseen-space prior at the last step (`train.unseen`); `null` when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unseen_last: Option<crate::train::unseen::UnseenStep>,

@@ -348,14 +348,10 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     // The visual-hull target, before anything is written: a hull the masks carve away entirely
     // is an input error, and `--force` must not have removed the old outputs for it.
     let all_masked = cfg.data.masks && masked_views.len() == train_idx.len();
-    let init_hull = match cfg.train.init.kind {
-        InitKind::Sphere => false,
-        InitKind::Auto if !all_masked => false,
-        InitKind::VisualHull if !all_masked => {
-            return Err(HullError::NoMasks("some training views have no mask").into())
-        }
-        InitKind::Auto | InitKind::VisualHull => true,
-    };
+    let kind = cfg.train.init.kind;
+    if kind == InitKind::VisualHull && !all_masked {
+        return Err(HullError::NoMasks("some training views have no mask").into());
+    }
     let unseen = cfg.train.unseen.enabled();
     if unseen && !all_masked {
         return Err(HullError::NoMasks(
@@ -363,14 +359,39 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         )
         .into());
     }
-    // The masks' visual hull, when the init or the prior needs it: the prior reads it as it is,
-    // the init fits its (optionally blurred) copy.
-    let hull = if init_hull || unseen {
-        let (ic, r) = (&cfg.train.init, model.config.render.radius);
-        let inside = hull::carve(&masked_views, r, ic.resolution);
-        Some(HullSdf::from_occupancy(&inside, ic.resolution, r)?)
-    } else {
-        None
+    // The masks' visual hull, when the init (or its choice) or the prior needs it: the prior
+    // reads it as it is, the init fits its (optionally blurred) copy.
+    let wants_hull = all_masked && kind != InitKind::Sphere;
+    let (ic, r) = (&cfg.train.init, model.config.render.radius);
+    let inside = (wants_hull || unseen).then(|| hull::carve(&masked_views, r, ic.resolution));
+    let sphere_cover = match (&inside, kind) {
+        (Some(inside), InitKind::SphereOrHull) => Some(hull::sphere_cover(
+            inside,
+            ic.resolution,
+            r,
+            model.config.field.sdf.sphere_init_radius,
+        )),
+        _ => None,
+    };
+    let init_hull = match kind {
+        InitKind::Sphere => false,
+        InitKind::Auto | InitKind::VisualHull => all_masked,
+        InitKind::SphereOrHull => sphere_cover.is_some_and(|c| c < ic.sphere_cover_min),
+    };
+    if let Some(c) = sphere_cover {
+        say(
+            quiet,
+            format!(
+                "init: the visual hull covers {:.1} % of the init sphere (threshold {:.1} %): {} start",
+                100.0 * c,
+                100.0 * ic.sphere_cover_min,
+                if init_hull { "visual-hull" } else { "sphere" }
+            ),
+        );
+    }
+    let hull = match inside.filter(|_| init_hull || unseen) {
+        Some(inside) => Some(HullSdf::from_occupancy(&inside, ic.resolution, r)?),
+        None => None,
     };
     let hull_target = hull
         .as_ref()
@@ -537,6 +558,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         train_views: train_idx.len(),
         heldout_views: heldout.clone(),
         hull_init,
+        sphere_cover,
         unseen_last: last.as_ref().and_then(|r| r.unseen),
     };
     say(
