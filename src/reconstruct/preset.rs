@@ -153,8 +153,9 @@ impl Preset {
         model.loss.curvature = delayed_curvature(train.iterations);
         if self != Preset::Paper {
             // The sphere start, unless the masks carve most of the init sphere away (issue 13):
-            // then the visual hull's. Fast, 9-run torus grid: genus right in 9 of 9 runs
-            // (8 of 9 from the sphere), Chamfer 0.424–0.509 mm; `rods` has a mesh (an empty one
+            // then the visual hull's. Fast, 9-run grids: torus genus right in 9 of 9 runs (8 of
+            // 9 from the sphere), Chamfer 0.424–0.509 mm; double-torus 9 of 9 either way; `thin`
+            // 1.235 / 1.062 mm at seeds 0 / 1 (1.583 / 1.514); `rods` 0.65–0.69 mm (an empty mesh
             // from the sphere). Scenes that fill the sphere train bit for bit as before
             // (`train::hull` module docs, results/geometry/sphere-or-hull-2026-11-25).
             // `paper` keeps the reference's sphere.
