@@ -66,7 +66,7 @@ pub enum InitKind {
     /// `Sphere`, unless every training view has a mask and the masks' visual hull covers less
     /// than [`InitConfig::sphere_cover_min`] of the init sphere's volume: then `VisualHull`
     /// ([`sphere_cover`]). The sphere start works when the object fills a good part of the
-    /// sphere, and the hull start costs accuracy there (issue 13: blob, plate, relief, blocks);
+    /// sphere, and the hull start costs accuracy there (issue 13: plate, relief, blocks, cup);
     /// when the masks carve most of the sphere away (a frame of thin rods), the first steps' mask
     /// loss drives the weight sum down everywhere and the field turns to fog (`rods`: an empty
     /// mesh), which the hull start avoids.
@@ -177,6 +177,11 @@ fn voxel_centre(i: usize, r: f64, h: f64) -> f64 {
     -r + (i as f64 + 0.5) * h
 }
 
+/// Centre `(x, y, z)` of the voxel at flat index `idx = (k·res + j)·res + i` ([`carve`]'s order).
+fn voxel_centre_at(idx: usize, res: usize, r: f64, h: f64) -> [f64; 3] {
+    [idx % res, (idx / res) % res, idx / (res * res)].map(|i| voxel_centre(i, r, h))
+}
+
 /// Visual hull on a `res³` grid of voxel centres over `[-radius, radius]³` (module docs, step 1).
 /// `views` pairs each camera (normalised space) with its mask (object `> 0.5`). Returns
 /// `inside [res³]`, index `(k·res + j)·res + i` for the voxel at `(x_i, y_j, z_k)`.
@@ -231,7 +236,7 @@ pub fn sphere_cover(inside: &[bool], res: usize, radius: f32, sphere_radius: f32
     let rs2 = (sphere_radius as f64).powi(2);
     let (mut ball, mut covered) = (0u64, 0u64);
     for (idx, &b) in inside.iter().enumerate() {
-        let c = [idx % res, (idx / res) % res, idx / (res * res)].map(|i| voxel_centre(i, r, h));
+        let c = voxel_centre_at(idx, res, r, h);
         if c[0] * c[0] + c[1] * c[1] + c[2] * c[2] <= rs2 {
             ball += 1;
             covered += u64::from(b);
@@ -529,8 +534,7 @@ mod tests {
         let ball = |a: f64| -> Vec<bool> {
             (0..res * res * res)
                 .map(|idx| {
-                    let c = [idx % res, (idx / res) % res, idx / (res * res)]
-                        .map(|i| voxel_centre(i, r as f64, h));
+                    let c = voxel_centre_at(idx, res, r as f64, h);
                     (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt() <= a
                 })
                 .collect()
