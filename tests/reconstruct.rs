@@ -98,6 +98,23 @@ fn same_seed_gives_the_same_mesh_and_all_outputs_exist() {
     assert_eq!(m["gt_genus"].as_i64(), Some(0), "{m}");
     let genus = m["mesh"]["largest_genus"].as_i64().unwrap();
     assert_eq!(m["genus_matches"].as_bool(), Some(genus == 0), "{m}");
+    // Rule 4 of the clean-up: `mesh.ply` is the part two training cameras see (the tiny rig is
+    // DTU's, above the object: the underside goes), `mesh_closed.ply` the closed surface it was
+    // cut from, and both are scored.
+    let unseen = m["mesh"]["clean"]["faces_unseen"].as_u64().unwrap() as usize;
+    let closed_faces = m["mesh"]["closed_faces"].as_u64().unwrap() as usize;
+    let written = dtu_eval::ply::read_mesh(&a.join("mesh.ply")).unwrap();
+    let closed = dtu_eval::ply::read_mesh(&a.join("mesh_closed.ply")).unwrap();
+    assert!(unseen > 0, "{m}");
+    assert_eq!(closed.faces.len(), closed_faces, "{m}");
+    assert_eq!(written.faces.len() + unseen, closed_faces, "{m}");
+    assert_eq!(
+        m["mesh"]["faces"].as_u64(),
+        Some(written.faces.len() as u64)
+    );
+    assert!(m["mesh"]["boundary_edges"].as_u64().unwrap() > 0, "{m}");
+    let closed_sum = m["chamfer_closed"]["chamfer_sum"].as_f64().unwrap();
+    assert!(closed_sum.is_finite() && closed_sum > 0.0, "{m}");
     // The mesh is in world mm: its centre is near the scene's normalisation centre, not the origin.
     let mesh = dtu_eval::ply::read_mesh(&a.join("mesh.ply")).unwrap();
     let scene = neus_aug::scene::Scene::load(tiny_scene(), &Default::default()).unwrap();
@@ -459,4 +476,32 @@ fn missing_scene_names_where_it_looked() {
     for e in ["scan999", "dtu_scan999", "built-in", "NEUS_AUG_DATA"] {
         assert!(err.contains(e), "lacks {e}: {err}");
     }
+}
+
+/// `mesh.clean_min_visible_views = 0` turns rule 4 off: `mesh.ply` is the closed cleaned
+/// surface, there is no `mesh_closed.ply` (a stale one from an earlier run in the folder is
+/// removed) and no second Chamfer.
+#[test]
+fn the_visibility_cut_is_a_switch_and_leaves_no_stale_closed_mesh() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), "");
+    let out = tmp.path().join("run");
+    ok(&reconstruct(&cfg, &out, &[]));
+    assert!(out.join("mesh_closed.ply").is_file());
+    ok(&reconstruct(
+        &cfg,
+        &out,
+        &["--force", "--set", "mesh.clean_min_visible_views=0"],
+    ));
+    assert!(!out.join("mesh_closed.ply").exists());
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(m["mesh"]["clean"]["faces_unseen"].as_u64(), Some(0), "{m}");
+    assert_eq!(m["mesh"]["faces"], m["mesh"]["closed_faces"], "{m}");
+    assert!(m["chamfer_closed"].is_null(), "{m}");
+    let written = dtu_eval::ply::read_mesh(&out.join("mesh.ply")).unwrap();
+    assert_eq!(
+        Some(written.faces.len() as u64),
+        m["mesh"]["faces"].as_u64()
+    );
 }

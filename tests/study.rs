@@ -571,7 +571,7 @@ fn hard_report_from_known_numbers_and_an_old_record() {
     assert!(!md.contains("| blob | +"), "no paired row for blob:\n{md}");
     let csv = std::fs::read_to_string(to.join("runs.csv")).unwrap();
     let header = csv.lines().next().unwrap();
-    assert!(header.ends_with(",time_to_mesh,floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,normal_error_deg"), "{header}");
+    assert!(header.ends_with(",time_to_mesh,floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,normal_error_deg,chamfer_closed"), "{header}");
     let old = csv
         .lines()
         .find(|l| l.starts_with("blob-baseline-s2,"))

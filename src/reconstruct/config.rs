@@ -149,8 +149,8 @@ pub struct MeshConfig {
     /// Padding of the refined box, as a fraction of the coarse mesh's extent.
     pub pad_fraction: f32,
     /// Clean the mesh before writing and scoring it (`mesh::clean`: mask culling, then small
-    /// components, then enclosed ones). The raw marching-cubes mesh is kept as `mesh_raw.ply` when anything was
-    /// removed.
+    /// components, then enclosed ones, then unseen faces). The raw marching-cubes mesh is kept
+    /// as `mesh_raw.ply` when the first three removed anything.
     pub clean: bool,
     /// Remove components whose area is below this share of the largest component's (`[0, 1]`).
     pub clean_min_area_share: f64,
@@ -161,6 +161,14 @@ pub struct MeshConfig {
     pub clean_dilate_px: usize,
     /// Remove components enclosed by a larger one (cavities no camera sees; `mesh::clean`).
     pub clean_enclosed: bool,
+    /// Score and write as `mesh.ply` only the faces that at least this many training cameras
+    /// see, occlusion by the mesh itself included (`mesh::clean` rule 4, NeuralWarp's triangle
+    /// filter); the closed surface is kept as `mesh_closed.ply`. `0` keeps every face.
+    pub clean_min_visible_views: usize,
+    /// Rule 4 keeps, beside the faces the cameras see, every face within this distance (world
+    /// mm, centroid to centroid) of one: surface that a camera sees only at a grazing angle can
+    /// turn away from it in the reconstruction by a few degrees of normal error.
+    pub clean_visible_margin_mm: f64,
 }
 
 impl Default for MeshConfig {
@@ -174,6 +182,8 @@ impl Default for MeshConfig {
             clean_mask_cull: true,
             clean_dilate_px: 4,
             clean_enclosed: true,
+            clean_min_visible_views: 2,
+            clean_visible_margin_mm: 0.0,
         }
     }
 }
@@ -381,6 +391,13 @@ impl RunConfig {
                 "mesh.clean_min_area_share",
                 m.clean_min_area_share,
                 "must be in [0, 1]",
+            ));
+        }
+        if !(m.clean_visible_margin_mm.is_finite() && m.clean_visible_margin_mm >= 0.0) {
+            return Err(invalid(
+                "mesh.clean_visible_margin_mm",
+                m.clean_visible_margin_mm,
+                "must be a finite distance >= 0 (world mm)",
             ));
         }
         let r = &self.model.render;

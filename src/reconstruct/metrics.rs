@@ -115,17 +115,23 @@ pub struct HullInitSummary {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(default)]
 pub struct MeshSummary {
+    /// Vertices, faces, boundary and non-manifold edges and components of the scored mesh
+    /// (`mesh.ply`: after every clean-up rule, the unseen faces of rule 4 included).
     pub vertices: usize,
     pub faces: usize,
     pub boundary_edges: usize,
     pub non_manifold_edges: usize,
     pub components: usize,
-    /// Genus of the written (cleaned) mesh, summed over its components
-    /// (`TopologyReport::genus`).
+    /// Genus of the closed cleaned mesh (rules 1–3 of `mesh::clean`, before rule 4 cuts the
+    /// unseen side away: `mesh_closed.ply`, or `mesh.ply` when rule 4 removed nothing), summed
+    /// over its components (`TopologyReport::genus`).
     pub genus: i64,
-    /// Genus of the written mesh's largest component (`TopologyReport::largest_genus`): what
-    /// `genus_matches` compares with the ground truth's. `None` for an empty mesh and in records
-    /// written before it existed.
+    /// Faces and boundary edges of that closed cleaned mesh (records before rule 4: 0).
+    pub closed_faces: usize,
+    pub closed_boundary_edges: usize,
+    /// Genus of the closed cleaned mesh's largest component (`TopologyReport::largest_genus`):
+    /// what `genus_matches` compares with the ground truth's. `None` for an empty mesh and in
+    /// records written before it existed.
     pub largest_genus: Option<i64>,
     /// Genus of the raw marching-cubes mesh: what the SDF itself represents (closed mesh).
     pub raw_genus: i64,
@@ -149,8 +155,13 @@ pub struct Metrics {
     #[serde(default)]
     pub seed: u64,
     pub config_hash: String,
-    /// `None` when no ground truth was found (see `eval_note`).
+    /// The scored mesh's (`mesh.ply`) figures; `None` when no ground truth was found (see
+    /// `eval_note`).
     pub chamfer: Option<ChamferMetrics>,
+    /// The same protocol on the closed cleaned mesh (`mesh_closed.ply`), when rule 4 of
+    /// `mesh::clean` cut faces from it: what the surface no camera sees costs.
+    #[serde(default)]
+    pub chamfer_closed: Option<ChamferMetrics>,
     #[serde(default)]
     pub eval_note: Option<String>,
     pub psnr_heldout: Option<f64>,

@@ -7,7 +7,10 @@
 //! held-out views (PSNR, SSIM).
 //!
 //! Output folder: `config.toml` (resolved configuration, written first), `checkpoint.safetensors`,
-//! `mesh.ply` (world mm, binary, cleaned: `mesh::clean`), `mesh_raw.ply` (the marching-cubes mesh before clean-up, when that removed anything), `renders/`, and `metrics.json`, written last: a folder without
+//! `mesh.ply` (world mm, binary, cleaned: `mesh::clean`, the part the training cameras see),
+//! `mesh_closed.ply` (the closed cleaned surface, when the visibility rule cut its unseen side),
+//! `mesh_raw.ply` (the marching-cubes mesh before clean-up, when that removed anything),
+//! `renders/`, and `metrics.json`, written last: a folder without
 //! `metrics.json` holds an unfinished run, never one that looks complete.
 //!
 //! A run folder is never lost or mixed up: `.neus-aug-run.lock` ([`lock`]) is held for the whole
@@ -40,7 +43,7 @@ pub use preset::scale_run_length;
 use truth::{find_gt, GeometryVsTruth};
 
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
-use crate::mesh::clean::{clean_mesh, CleanOptions};
+use crate::mesh::clean::{clean_mesh, cull_unseen, CleanOptions};
 use crate::mesh::{extract_two_pass, to_world, McError, McOptions, TopologyReport, TwoPassOptions};
 use crate::render::model::{ModelError, NeusModel, RayBatch};
 use crate::scene::{GrayImage, LoadOptions, RgbImage, Scene, SceneError};
@@ -426,7 +429,12 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         None
     };
     if opts.force {
-        for f in ["metrics.json", "mesh.ply", "mesh_raw.ply"] {
+        for f in [
+            "metrics.json",
+            "mesh.ply",
+            "mesh_raw.ply",
+            "mesh_closed.ply",
+        ] {
             remove_if_present(&out.join(f))?;
         }
         if resumed.is_none() {
@@ -587,9 +595,9 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     )?;
     let raw = two.mesh;
     let topo_raw = TopologyReport::of(&raw);
-    let (mut mesh, clean) = if cfg.mesh.clean {
-        let cameras: Vec<&crate::scene::Camera> =
-            train_idx.iter().map(|&i| &scene.views[i].camera).collect();
+    let cameras: Vec<&crate::scene::Camera> =
+        train_idx.iter().map(|&i| &scene.views[i].camera).collect();
+    let (closed, mut clean) = if cfg.mesh.clean {
         let (m, rep) = clean_mesh(
             &raw,
             &masked_views,
@@ -606,15 +614,36 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     } else {
         (raw.clone(), None)
     };
+    // Rule 4 (`mesh::clean`): the scored mesh is the part the training cameras see; the closed
+    // surface it was cut from stays beside it, and the genus is measured on that.
+    let (mut mesh, unseen) = match clean.as_mut() {
+        Some(rep) => {
+            let margin = cfg.mesh.clean_visible_margin_mm / scene.normalization.scale;
+            let (m, n) = cull_unseen(&closed, &cameras, cfg.mesh.clean_min_visible_views, margin);
+            rep.faces_unseen = n;
+            rep.components_seen = TopologyReport::of(&m).components;
+            (m, n)
+        }
+        None => (closed.clone(), 0),
+    };
+    let mut closed = closed;
+    to_world(&mut closed, &scene.normalization);
     to_world(&mut mesh, &scene.normalization);
-    let topo = TopologyReport::of(&mesh);
+    let topo = TopologyReport::of(&closed);
+    let topo_seen = TopologyReport::of(&mesh);
     let raw_path = out.join("mesh_raw.ply");
-    if mesh.faces.len() != raw.faces.len() {
+    if closed.faces.len() != raw.faces.len() {
         let mut raw = raw;
         to_world(&mut raw, &scene.normalization);
         dtu_eval::ply::write_mesh(&raw_path, &raw)?;
     } else if raw_path.is_file() {
         std::fs::remove_file(&raw_path).map_err(io_err(&raw_path))?;
+    }
+    let closed_path = out.join("mesh_closed.ply");
+    if unseen > 0 {
+        dtu_eval::ply::write_mesh(&closed_path, &closed)?;
+    } else if closed_path.is_file() {
+        std::fs::remove_file(&closed_path).map_err(io_err(&closed_path))?;
     }
     dtu_eval::ply::write_mesh(&out.join("mesh.ply"), &mesh)?;
     timings.mesh = t.elapsed().as_secs_f64();
@@ -631,6 +660,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     // Evaluation.
     let t = Instant::now();
     let truth = sim::SceneTruth::read(&scene_ref.dir);
+    let mut chamfer_closed = None;
     let (chamfer, eval_note) = if !cfg.eval.enabled {
         (
             None,
@@ -658,17 +688,20 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                     // DTUeval-python's default `visualize_threshold` (10 mm).
                     dtu_eval::vis::write_dtu(&out, scan, &e, &gt.points, 10.0, params.max_dist)?;
                 }
-                (
-                    Some(ChamferMetrics {
-                        mean_d2s: e.mean_d2s,
-                        mean_s2d: e.mean_s2d,
-                        overall: e.overall(),
-                        chamfer_sum: e.chamfer_sum(),
-                        gt_root: root.display().to_string(),
-                        scan,
-                    }),
-                    None,
-                )
+                let figures = |e: &dtu_eval::protocol::DtuEvaluation| ChamferMetrics {
+                    mean_d2s: e.mean_d2s,
+                    mean_s2d: e.mean_s2d,
+                    overall: e.overall(),
+                    chamfer_sum: e.chamfer_sum(),
+                    gt_root: root.display().to_string(),
+                    scan,
+                };
+                // The closed surface too, when rule 4 cut it: what the unseen side costs.
+                if unseen > 0 && !closed.faces.is_empty() {
+                    let c = dtu_eval::protocol::evaluate_mesh(&closed, &gt, &params, cfg.seed)?;
+                    chamfer_closed = Some(figures(&c));
+                }
+                (Some(figures(&e)), None)
             }
         }
     };
@@ -823,13 +856,16 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         mask_iou_heldout: mean(&|m| m.mask_iou),
         heldout: heldout_metrics,
         train: train_summary,
+        chamfer_closed,
         mesh: MeshSummary {
             vertices: mesh.vertices.len(),
             faces: mesh.faces.len(),
-            boundary_edges: topo.boundary_edges,
-            non_manifold_edges: topo.non_manifold_edges,
-            components: topo.components,
+            boundary_edges: topo_seen.boundary_edges,
+            non_manifold_edges: topo_seen.non_manifold_edges,
+            components: topo_seen.components,
             genus: topo.genus,
+            closed_faces: topo.faces,
+            closed_boundary_edges: topo.boundary_edges,
             largest_genus: geometry.genus,
             raw_genus: topo_raw.genus,
             raw_components: topo_raw.components,

@@ -290,6 +290,13 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("views_fraction"), "{e}");
+        for bad in ["-1", "nan"] {
+            let set = format!("mesh.clean_visible_margin_mm={bad}");
+            let e = resolve(None, None, &[parse_set(&set).unwrap()])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("mesh.clean_visible_margin_mm"), "{e}");
+        }
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("bad.toml");
         std::fs::write(&f, "[train\niterations = 1").unwrap();

@@ -29,7 +29,7 @@ pub(super) fn runs_csv(records: &[RunRecord]) -> String {
     if geometry {
         s.push_str(
             ",floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,\
-             normal_error_deg",
+             normal_error_deg,chamfer_closed",
         );
     }
     s.push('\n');
@@ -74,6 +74,7 @@ pub(super) fn runs_csv(records: &[RunRecord]) -> String {
                 opt(g.components_raw.map(|x| x.to_string())),
                 opt(g.components.map(|x| x.to_string())),
                 csv_opt(g.normal_error_deg),
+                csv_opt(g.chamfer_closed),
             ];
             s.push(',');
             s.push_str(&f.join(","));

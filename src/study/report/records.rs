@@ -64,15 +64,18 @@ pub struct GeometryRecord {
     pub floor_mm: Option<f64>,
     /// Chamfer sum / floor.
     pub ratio_to_floor: Option<f64>,
-    /// Genus of the written mesh's largest component.
+    /// Genus of the closed cleaned mesh's largest component (`metrics.json` `mesh.largest_genus`).
     pub genus: Option<i64>,
     /// Genus of the true mesh's largest component.
     pub gt_genus: Option<i64>,
     pub genus_matches: Option<bool>,
     /// Components of the marching-cubes mesh, before clean-up.
     pub components_raw: Option<usize>,
-    /// Components of the written (cleaned) mesh.
+    /// Components of the closed cleaned mesh (after rules 1–3 of `mesh::clean`; the floater
+    /// count). Records older than rule 4: the written mesh's.
     pub components: Option<usize>,
+    /// Chamfer sum of the closed cleaned mesh (mm), when rule 4 cut its unseen side away.
+    pub chamfer_closed: Option<f64>,
     /// Mean angle between rendered and true normals on the held-out views (degrees).
     pub normal_error_deg: Option<f64>,
 }
@@ -91,7 +94,13 @@ impl GeometryRecord {
             gt_genus: m.gt_genus,
             genus_matches: m.genus_matches,
             components_raw: raw_known.then_some(m.mesh.raw_components),
-            components: known.then_some(m.mesh.components),
+            components: known.then_some(
+                m.mesh
+                    .clean
+                    .as_ref()
+                    .map_or(m.mesh.components, |c| c.components_after),
+            ),
+            chamfer_closed: m.chamfer_closed.as_ref().map(|c| c.chamfer_sum),
             normal_error_deg: m.normal_error_deg,
         }
     }
