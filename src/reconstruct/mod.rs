@@ -597,7 +597,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let topo_raw = TopologyReport::of(&raw);
     let cameras: Vec<&crate::scene::Camera> =
         train_idx.iter().map(|&i| &scene.views[i].camera).collect();
-    let (closed, mut clean) = if cfg.mesh.clean {
+    let (mut closed, mut clean) = if cfg.mesh.clean {
         let (m, rep) = clean_mesh(
             &raw,
             &masked_views,
@@ -621,16 +621,21 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             let margin = cfg.mesh.clean_visible_margin_mm / scene.normalization.scale;
             let (m, n) = cull_unseen(&closed, &cameras, cfg.mesh.clean_min_visible_views, margin);
             rep.faces_unseen = n;
-            rep.components_seen = TopologyReport::of(&m).components;
             (m, n)
         }
         None => (closed.clone(), 0),
     };
-    let mut closed = closed;
     to_world(&mut closed, &scene.normalization);
     to_world(&mut mesh, &scene.normalization);
     let topo = TopologyReport::of(&closed);
-    let topo_seen = TopologyReport::of(&mesh);
+    let topo_seen = if unseen > 0 {
+        TopologyReport::of(&mesh)
+    } else {
+        topo
+    };
+    if let Some(rep) = clean.as_mut() {
+        rep.components_seen = topo_seen.components;
+    }
     let raw_path = out.join("mesh_raw.ply");
     if closed.faces.len() != raw.faces.len() {
         let mut raw = raw;
