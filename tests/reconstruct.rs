@@ -396,6 +396,57 @@ fn sphere_or_hull_init_chooses_by_the_cover_and_reports_it() {
     );
 }
 
+/// The photo-consistency carve of the hull (`train.init.photo_tau`, issue 13) runs before the
+/// start is fitted and `metrics.json` reports it: it can only remove voxels, it cast rays, and
+/// with a tolerance above any colour difference it removes nothing. Out-of-range knobs are
+/// refused by name.
+#[test]
+fn photo_carve_of_the_hull_is_reported_and_its_knobs_are_checked() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path(), "");
+    let hull = "train.init.kind=\"visual_hull\"";
+    let run = |name: &str, tau: &str| {
+        let out = tmp.path().join(name);
+        let set = format!("train.init.photo_tau={tau}");
+        ok(&reconstruct(&cfg, &out, &["--set", hull, "--set", &set]));
+        let m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap())
+                .unwrap();
+        m["train"]["photo_carve"].clone()
+    };
+    let carve = run("tight", "0.02");
+    let (before, after) = (
+        carve["inside_before"].as_u64().unwrap(),
+        carve["inside_after"].as_u64().unwrap(),
+    );
+    assert!(before > 0 && after <= before, "{carve}");
+    assert!(carve["rays"].as_u64().unwrap() > 0, "{carve}");
+    let loose = run("loose", "1.0");
+    assert_eq!(loose["inside_after"], loose["inside_before"], "{loose}");
+    assert_eq!(loose["converged"], true, "{loose}");
+    let off = tmp.path().join("off");
+    ok(&reconstruct(&cfg, &off, &["--set", hull]));
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(off.join("metrics.json")).unwrap()).unwrap();
+    assert!(m["train"].get("photo_carve").is_none(), "{}", m["train"]);
+    for (set, words) in [
+        (
+            "train.init.photo_tau=1.5",
+            ["train.init.photo_tau", "[0, 1]"],
+        ),
+        (
+            "train.init.photo_min_views=1",
+            ["train.init.photo_min_views", "at least 2"],
+        ),
+        (
+            "train.init.photo_max_iterations=0",
+            ["train.init.photo_max_iterations", "at least 1"],
+        ),
+    ] {
+        fails_with("", &["--set", hull, "--set", set], None, &words);
+    }
+}
+
 /// The unseen-space prior (issue 13) reads the masks' visual hull: without masks it is refused
 /// by name, and a bad value of its section is named too.
 #[test]

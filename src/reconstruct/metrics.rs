@@ -91,6 +91,9 @@ pub struct TrainSummary {
     /// absent for the other kinds.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sphere_cover: Option<f64>,
+    /// The photo-consistency carve of the hull (`train.init.photo_tau > 0`); absent when off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub photo_carve: Option<crate::train::photo_hull::PhotoCarveReport>,
     /// The unseen-space prior at the last step (`train.unseen`); `null` when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unseen_last: Option<crate::train::unseen::UnseenStep>,

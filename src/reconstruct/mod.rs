@@ -52,6 +52,7 @@ use crate::train::checkpoint::{self, CheckpointError, TrainState};
 use crate::train::data::{camera_rays, DataError};
 use crate::train::hull::{self, HullError, HullSdf, InitKind};
 use crate::train::metrics::{psnr, ssim};
+use crate::train::photo_hull::{self, PhotoCarveParams};
 use crate::train::unseen::UnseenPrior;
 use crate::train::{TrainData, TrainError, Trainer};
 use serde::Serialize;
@@ -366,14 +367,68 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     // reads it as it is, the init fits its (optionally blurred) copy.
     let wants_hull = all_masked && kind != InitKind::Sphere;
     let (ic, r) = (&cfg.train.init, model.config.render.radius);
-    let inside = (wants_hull || unseen).then(|| hull::carve(&masked_views, r, ic.resolution));
+    let visual = (wants_hull || unseen).then(|| hull::carve(&masked_views, r, ic.resolution));
+    let cover_of = |g: &[bool]| {
+        let sr = model.config.field.sdf.sphere_init_radius;
+        hull::sphere_cover(g, ic.resolution, r, sr)
+    };
+    // `sphere_or_hull` takes the masks' hull as it is when it already carves most of the sphere.
+    let masks_decide = kind == InitKind::SphereOrHull
+        && visual
+            .as_deref()
+            .is_some_and(|v| cover_of(v) < ic.sphere_cover_min);
+    // Otherwise the photo-consistent carve of that hull (`train::photo_hull`), when asked, for
+    // the start only (the unseen-space prior keeps the masks' hull): under `sphere_or_hull` the
+    // carved hull is the start when it empties most of the sphere (a concavity the masks
+    // cannot see, as a cup's inside). It reads the training images as training sees them
+    // (degraded, if asked), before any augmentation.
+    let mut photo_carve = None;
+    let inside =
+        match &visual {
+            Some(v) if wants_hull && ic.photo_tau > 0.0 && !masks_decide => {
+                let mut g = v.clone();
+                let views: Vec<_> = train_idx
+                    .iter()
+                    .zip(data.views())
+                    .map(|(&i, img)| {
+                        let view = &scene.views[i];
+                        (&view.camera, img, view.mask.as_ref())
+                    })
+                    .collect();
+                let params = PhotoCarveParams {
+                    tau: ic.photo_tau,
+                    min_views: ic.photo_min_views,
+                    max_iterations: ic.photo_max_iterations,
+                };
+                let rep = photo_hull::photo_carve(&views, &mut g, ic.resolution, r, &params);
+                let empty = rep.inside_after == 0;
+                say(
+                    quiet,
+                    format!(
+                    "init: the photo-consistency carve removed {:.1} % of the visual hull in {} \
+                     passes ({}, {:.1} s){}",
+                    100.0 * rep.carved_share(),
+                    rep.iterations,
+                    if rep.converged { "converged" } else { "pass cap reached" },
+                    rep.seconds,
+                    if empty {
+                        ": nothing left, so the masks' hull is used as it is"
+                    } else {
+                        ""
+                    }
+                ),
+                );
+                photo_carve = Some(rep);
+                if empty {
+                    visual.clone()
+                } else {
+                    Some(g)
+                }
+            }
+            _ => visual.clone(),
+        };
     let sphere_cover = match (&inside, kind) {
-        (Some(inside), InitKind::SphereOrHull) => Some(hull::sphere_cover(
-            inside,
-            ic.resolution,
-            r,
-            model.config.field.sdf.sphere_init_radius,
-        )),
+        (Some(inside), InitKind::SphereOrHull) => Some(cover_of(inside)),
         _ => None,
     };
     let init_hull = match kind {
@@ -385,21 +440,28 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         say(
             quiet,
             format!(
-                "init: the visual hull covers {:.1} % of the init sphere (threshold {:.1} %): {} start",
+                "init: the {} covers {:.1} % of the init sphere (threshold {:.1} %): {} start",
+                if photo_carve.is_some() {
+                    "carved hull"
+                } else {
+                    "visual hull"
+                },
                 100.0 * c,
                 100.0 * ic.sphere_cover_min,
-                if init_hull { "visual-hull" } else { "sphere" }
+                if init_hull { "hull" } else { "sphere" }
             ),
         );
     }
-    let hull = match inside.filter(|_| init_hull || unseen) {
-        Some(inside) => Some(HullSdf::from_occupancy(&inside, ic.resolution, r)?),
-        None => None,
+    let hull_target = match &inside {
+        Some(g) if init_hull => {
+            Some(HullSdf::from_occupancy(g, ic.resolution, r)?.smoothed(ic.smooth_voxels))
+        }
+        _ => None,
     };
-    let hull_target = hull
-        .as_ref()
-        .filter(|_| init_hull)
-        .map(|h| h.smoothed(cfg.train.init.smooth_voxels));
+    let unseen_hull = match &visual {
+        Some(g) if unseen => Some(HullSdf::from_occupancy(g, ic.resolution, r)?),
+        _ => None,
+    };
     timings.prepare = t.elapsed().as_secs_f64();
 
     // The output folder: lock it, look again (another process may have finished a run there
@@ -456,7 +518,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         cfg.seed,
         cfg.augment.seed ^ cfg.seed,
     );
-    if let Some(h) = hull.filter(|_| unseen) {
+    if let Some(h) = unseen_hull {
         trainer = trainer.with_unseen_prior(UnseenPrior::new(
             cfg.train.unseen.clone(),
             h,
@@ -567,6 +629,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         heldout_views: heldout.clone(),
         hull_init,
         sphere_cover,
+        photo_carve,
         unseen_last: last.as_ref().and_then(|r| r.unseen),
     };
     say(

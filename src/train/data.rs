@@ -159,6 +159,12 @@ impl TrainData {
         self.masks.is_some()
     }
 
+    /// The training images before augmentation (degraded, when the run degrades them), in the
+    /// order of the cameras given to [`TrainData::new`].
+    pub fn views(&self) -> &[crate::scene::RgbImage] {
+        self.sampler.views()
+    }
+
     /// Fills `batch` with `n` rays. `rng` picks views and pixels; `aug_rng` draws augmentations
     /// (separate streams, so runs with and without augmentation visit the same pixels).
     pub fn sample(&self, n: usize, rng: &mut impl Rng, aug_rng: &mut impl Rng, batch: &mut Batch) {

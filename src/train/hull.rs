@@ -94,6 +94,31 @@ pub struct InitConfig {
     /// this share of the init sphere's volume ([`sphere_cover`]; 0.5: the masks carve away
     /// most of the sphere).
     pub sphere_cover_min: f64,
+    /// Photo-consistent carving of the visual hull before the start is chosen and fitted
+    /// ([`super::photo_hull`]): a voxel that `photo_min_views` views see with an RGB spread
+    /// above this is carved (RGB in `[0, 1]`). 0: off (the masks' hull as it is). The three
+    /// photo fields are left out of the config text at their defaults, so the training hashes of
+    /// runs without the carve are those of the commits before it.
+    #[serde(skip_serializing_if = "is_off")]
+    pub photo_tau: f32,
+    /// Views that must see a voxel before the photo carve judges it (3).
+    #[serde(skip_serializing_if = "is_default_min_views")]
+    pub photo_min_views: usize,
+    /// Photo-carve passes at most (256; each peels at most one voxel layer along every ray).
+    #[serde(skip_serializing_if = "is_default_max_iterations")]
+    pub photo_max_iterations: usize,
+}
+
+fn is_off(tau: &f32) -> bool {
+    *tau == 0.0
+}
+
+fn is_default_min_views(n: &usize) -> bool {
+    *n == InitConfig::default().photo_min_views
+}
+
+fn is_default_max_iterations(n: &usize) -> bool {
+    *n == InitConfig::default().photo_max_iterations
 }
 
 impl Default for InitConfig {
@@ -106,6 +131,9 @@ impl Default for InitConfig {
             lr: 1e-2,
             smooth_voxels: 0.0,
             sphere_cover_min: 0.5,
+            photo_tau: 0.0,
+            photo_min_views: 3,
+            photo_max_iterations: 256,
         }
     }
 }
@@ -139,6 +167,27 @@ impl InitConfig {
                 "train.init.sphere_cover_min",
                 self.sphere_cover_min.to_string(),
                 "must be in [0, 1]",
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.photo_tau) {
+            return Some((
+                "train.init.photo_tau",
+                self.photo_tau.to_string(),
+                "must be in [0, 1] (0: off)",
+            ));
+        }
+        if self.photo_min_views < 2 {
+            return Some((
+                "train.init.photo_min_views",
+                self.photo_min_views.to_string(),
+                "must be at least 2",
+            ));
+        }
+        if self.photo_max_iterations == 0 {
+            return Some((
+                "train.init.photo_max_iterations",
+                "0".into(),
+                "must be at least 1",
             ));
         }
         if !(0.0..=8.0).contains(&self.smooth_voxels) {

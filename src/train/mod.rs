@@ -9,6 +9,7 @@ pub mod data;
 pub mod hull;
 pub mod loss;
 pub mod metrics;
+pub mod photo_hull;
 pub mod schedule;
 pub mod trainer;
 pub mod unseen;
