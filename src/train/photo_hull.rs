@@ -85,21 +85,11 @@ struct Ray {
     rgb: [f32; 3],
 }
 
-/// Entry and exit of `o + t·d` through the box `[-r, r]³` (slab test), clipped to `t ≥ 0`.
+/// Entry and exit of `o + t·d` through the box `[-r, r]³`, clipped to `t ≥ 0`
+/// ([`super::unseen::box_interval`], in f32).
 fn box_span(o: [f32; 3], d: [f32; 3], r: f32) -> Option<(f32, f32)> {
-    let (mut t0, mut t1) = (0.0f32, f32::INFINITY);
-    for a in 0..3 {
-        if d[a].abs() < 1e-12 {
-            if o[a].abs() > r {
-                return None;
-            }
-            continue;
-        }
-        let (ta, tb) = ((-r - o[a]) / d[a], (r - o[a]) / d[a]);
-        t0 = t0.max(ta.min(tb));
-        t1 = t1.min(ta.max(tb));
-    }
-    (t0 < t1).then_some((t0, t1))
+    super::unseen::box_interval(o.map(f64::from), d.map(f64::from), f64::from(r))
+        .map(|(t0, t1)| (t0 as f32, t1 as f32))
 }
 
 /// The first voxel with `inside` set that the ray crosses at or after `t_start`, and the ray
@@ -384,8 +374,8 @@ mod tests {
             // Brute force: the occupied voxel whose cube the ray enters first (slab test).
             let mut best: Option<(u32, f32)> = None;
             for (idx, _) in inside.iter().enumerate().filter(|(_, &b)| b) {
-                let lo = [idx % res, (idx / res) % res, idx / (res * res)]
-                    .map(|c| -r + c as f32 * h);
+                let lo =
+                    [idx % res, (idx / res) % res, idx / (res * res)].map(|c| -r + c as f32 * h);
                 let (mut t0, mut t1) = (0.0f32, ray.t_end);
                 for a in 0..3 {
                     if d[a] == 0.0 {

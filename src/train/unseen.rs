@@ -157,7 +157,7 @@ impl UnseenConfig {
 }
 
 /// Intersection `[t0, t1]` of the ray `o + t·d` with the box `[-r, r]³`, if any with `t1 > 0`.
-fn box_interval(o: [f64; 3], d: [f64; 3], r: f64) -> Option<(f64, f64)> {
+pub(crate) fn box_interval(o: [f64; 3], d: [f64; 3], r: f64) -> Option<(f64, f64)> {
     let (mut t0, mut t1) = (0f64, f64::INFINITY);
     for a in 0..3 {
         if d[a].abs() < 1e-12 {
