@@ -373,10 +373,11 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         hull::sphere_cover(g, ic.resolution, r, sr)
     };
     // `sphere_or_hull` takes the masks' hull as it is when it already carves most of the sphere.
-    let masks_decide = kind == InitKind::SphereOrHull
-        && visual
-            .as_deref()
-            .is_some_and(|v| cover_of(v) < ic.sphere_cover_min);
+    let visual_cover = match (&visual, kind) {
+        (Some(v), InitKind::SphereOrHull) => Some(cover_of(v)),
+        _ => None,
+    };
+    let masks_decide = visual_cover.is_some_and(|c| c < ic.sphere_cover_min);
     // Otherwise the photo-consistent carve of that hull (`train::photo_hull`), when asked, for
     // the start only (the unseen-space prior keeps the masks' hull): under `sphere_or_hull` the
     // carved hull is the start when it empties most of the sphere (a concavity the masks
@@ -428,7 +429,9 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             _ => visual.clone(),
         };
     let sphere_cover = match (&inside, kind) {
-        (Some(inside), InitKind::SphereOrHull) => Some(cover_of(inside)),
+        // The masks' hull's cover is known; only a carved hull needs a new one.
+        (Some(inside), InitKind::SphereOrHull) if photo_carve.is_some() => Some(cover_of(inside)),
+        _ if kind == InitKind::SphereOrHull => visual_cover,
         _ => None,
     };
     let init_hull = match kind {
