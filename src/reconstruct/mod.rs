@@ -455,16 +455,23 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             ),
         );
     }
-    let hull_target = match &inside {
-        Some(g) if init_hull => {
-            Some(HullSdf::from_occupancy(g, ic.resolution, r)?.smoothed(ic.smooth_voxels))
+    // The start is the carved hull only when the carve left something; otherwise it is the
+    // masks' hull, whose distance transform the unseen-space prior shares (computed once).
+    let carved = photo_carve.as_ref().is_some_and(|rep| rep.inside_after > 0);
+    let visual_sdf = match &visual {
+        Some(g) if unseen || (init_hull && !carved) => {
+            Some(HullSdf::from_occupancy(g, ic.resolution, r)?)
         }
         _ => None,
     };
-    let unseen_hull = match &visual {
-        Some(g) if unseen => Some(HullSdf::from_occupancy(g, ic.resolution, r)?),
+    let hull_target = match (&inside, &visual_sdf) {
+        (Some(g), _) if init_hull && carved => {
+            Some(HullSdf::from_occupancy(g, ic.resolution, r)?.smoothed(ic.smooth_voxels))
+        }
+        (_, Some(h)) if init_hull => Some(h.smoothed(ic.smooth_voxels)),
         _ => None,
     };
+    let unseen_hull = visual_sdf.filter(|_| unseen);
     timings.prepare = t.elapsed().as_secs_f64();
 
     // The output folder: lock it, look again (another process may have finished a run there
