@@ -490,12 +490,17 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     check_output(&out, opts, true)?;
     let hash = cfg.training_hash();
     let ckpt_path = out.join("checkpoint.safetensors");
+    let train_sizes = data.sizes();
     let resumed: Option<TrainState> = if opts.resume && ckpt_path.is_file() {
         Some(checkpoint::load(
             &ckpt_path,
             &model.layout,
             &cfg.train.optimizer,
             &hash,
+            cfg.train
+                .error_map
+                .enabled()
+                .then(|| (&cfg.train.error_map, &train_sizes[..])),
         )?)
     } else {
         None
@@ -641,6 +646,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         sphere_cover,
         photo_carve,
         unseen_last: last.as_ref().and_then(|r| r.unseen),
+        error_map: state.error_map.as_ref().map(|m| m.summary()),
     };
     say(
         quiet,

@@ -6,13 +6,16 @@
 //!   `appearance`, and `bg_density`, `bg_color` with a learned background; see
 //!   [`crate::field::ParamLayout`]);
 //! - `adam_m.<group>`, `adam_v.<group>`: f32, AdamW's moments, same shapes;
-//! - `occupancy.occ`: f32 `[r, r, r]`, `occupancy.binary`: u8 `[r, r, r]`.
+//! - `occupancy.occ`: f32 `[r, r, r]`, `occupancy.binary`: u8 `[r, r, r]`;
+//! - with error-map sampling (`train.error_map`), `error_map.err` and `error_map.cdf`: f32
+//!   `[n_cells]` ([`super::error_map::ErrorMap`]).
 //!
 //! Metadata (strings): `format` = `neus-aug-checkpoint-1`, `step` (completed steps), `adam_t`,
 //! `num_rays` (the dynamic ray count), `skipped_steps`, `config_hash` (of the resolved run
 //! configuration, so a resume with another configuration is refused) and `config` (the TOML).
 
 use super::adam::AdamW;
+use super::error_map::{ErrorMap, ErrorMapConfig};
 use crate::field::ParamLayout;
 use crate::render::occupancy::OccupancyGrid;
 use safetensors::tensor::{Dtype, TensorView};
@@ -62,6 +65,8 @@ pub struct TrainState {
     pub num_rays: usize,
     /// Steps skipped by the optimiser's NaN guard so far.
     pub skipped_steps: u64,
+    /// The error map of error-map sampling (`None` when `train.error_map` is off).
+    pub error_map: Option<ErrorMap>,
 }
 
 fn f32_bytes(v: &[f32]) -> Vec<u8> {
@@ -115,6 +120,11 @@ pub fn save(
         Dtype::U8,
         state.occ.binary.iter().map(|&b| b as u8).collect(),
     ));
+    if let Some(m) = &state.error_map {
+        for (name, v) in [("error_map.err", &m.err), ("error_map.cdf", &m.cdf)] {
+            owned.push((name.into(), vec![v.len()], Dtype::F32, f32_bytes(v)));
+        }
+    }
     let views: Vec<(String, TensorView)> = owned
         .iter()
         .map(|(name, shape, dtype, bytes)| {
@@ -186,12 +196,15 @@ fn check_values(name: &str, values: &[f32], non_negative: bool) -> Result<(), St
 }
 
 /// Reads a checkpoint written by [`save`] for a model with `layout`, refusing one whose
-/// `config_hash` differs from `expected_hash`.
+/// `config_hash` differs from `expected_hash`. `error_map`: the run's error-map settings and
+/// training-view sizes when error-map sampling is on (the map is then required and checked
+/// against them); `None` ignores any stored map.
 pub fn load(
     path: &Path,
     layout: &ParamLayout,
     adam_config: &super::adam::AdamWConfig,
     expected_hash: &str,
+    error_map: Option<(&ErrorMapConfig, &[(u32, u32)])>,
 ) -> Result<TrainState, CheckpointError> {
     let invalid = |why: String| CheckpointError::Invalid {
         path: path.into(),
@@ -276,6 +289,23 @@ pub fn load(
         .iter()
         .map(|&b| b != 0)
         .collect();
+    let error_map = match error_map {
+        None => None,
+        Some((cfg, sizes)) => {
+            let stored = |name: &str| -> Result<Vec<f32>, CheckpointError> {
+                let t = st
+                    .tensor(name)
+                    .map_err(|e| invalid(format!("tensor {name}: {e}")))?;
+                let shape = t.shape().to_vec();
+                Ok(bytes_f32(&tensor(name, Dtype::F32, &shape)?))
+            };
+            let (err, cdf) = (stored("error_map.err")?, stored("error_map.cdf")?);
+            Some(
+                ErrorMap::restore(cfg, sizes, err, cdf)
+                    .map_err(|e| invalid(format!("error map: {e}")))?,
+            )
+        }
+    };
     Ok(TrainState {
         step: num("step")?,
         params,
@@ -288,5 +318,6 @@ pub fn load(
         occ,
         num_rays: num("num_rays")? as usize,
         skipped_steps: num("skipped_steps")?,
+        error_map,
     })
 }

@@ -4,8 +4,10 @@
 //! Sampling follows instant-nsr-pl `systems/neus.py` (`batch_image_sampling: true`): each ray
 //! draws its own view uniformly and its own pixel uniformly, and goes through the pixel centre
 //! (`x + 0.5, y + 0.5`, `scene::camera`). With masks, the target colour is composited on the
-//! background, `rgb·m + bg·(1 − m)` (`apply_mask: true` there).
+//! background, `rgb·m + bg·(1 − m)` (`apply_mask: true` there). With `train.error_map` on, a
+//! share of the pixels is drawn where the colour error is high instead ([`super::error_map`]).
 
+use super::error_map::ErrorMap;
 use crate::augment::{AugSample, AugSampler};
 use crate::scene::{Camera, GrayImage};
 use rand::Rng;
@@ -78,6 +80,10 @@ pub struct Batch {
     pub rgb: Vec<[f32; 3]>,
     /// `[n]` mask values in `[0, 1]`; empty when the scene has no masks.
     pub mask: Vec<f32>,
+    /// `[n]` training view of each ray (index into the cameras given to [`TrainData::new`]).
+    pub views: Vec<u32>,
+    /// `[n]` pixel `[x, y]` each ray goes through (its centre).
+    pub pixels: Vec<[u32; 2]>,
     samples: Vec<AugSample>,
 }
 
@@ -165,9 +171,24 @@ impl TrainData {
         self.sampler.views()
     }
 
+    /// Training-view sizes `(width, height)` in pixels, in camera order.
+    pub fn sizes(&self) -> Vec<(u32, u32)> {
+        self.cameras.iter().map(|c| (c.width, c.height)).collect()
+    }
+
     /// Fills `batch` with `n` rays. `rng` picks views and pixels; `aug_rng` draws augmentations
-    /// (separate streams, so runs with and without augmentation visit the same pixels).
-    pub fn sample(&self, n: usize, rng: &mut impl Rng, aug_rng: &mut impl Rng, batch: &mut Batch) {
+    /// (separate streams, so runs with and without augmentation visit the same pixels). With an
+    /// `error_map` ([`super::error_map`]), a ray's pixel comes from the map with probability
+    /// `share` (one more draw of `rng` per ray); without, the draws are those of the uniform
+    /// sampler alone.
+    pub fn sample(
+        &self,
+        n: usize,
+        rng: &mut impl Rng,
+        aug_rng: &mut impl Rng,
+        error_map: Option<&ErrorMap>,
+        batch: &mut Batch,
+    ) {
         batch.origins.clear();
         batch.dirs.clear();
         batch.codes.clear();
@@ -175,12 +196,21 @@ impl TrainData {
         batch.rgb.clear();
         batch.mask.clear();
         batch.samples.clear();
+        batch.views.clear();
+        batch.pixels.clear();
         let nv = self.cameras.len();
         for _ in 0..n {
             let v = rng.random_range(0..nv);
             let cam = &self.cameras[v];
-            let x = rng.random_range(0..cam.width);
-            let y = rng.random_range(0..cam.height);
+            let (x, y) = match error_map {
+                Some(m) if rng.random::<f32>() < m.config().share => m.sample_pixel(v, rng),
+                _ => (
+                    rng.random_range(0..cam.width),
+                    rng.random_range(0..cam.height),
+                ),
+            };
+            batch.views.push(v as u32);
+            batch.pixels.push([x, y]);
             let (o, d) = cam.ray(x as f64 + 0.5, y as f64 + 0.5);
             let s = self.sampler.sample(aug_rng, v, x as usize, y as usize);
             let rgb = match &self.masks {
@@ -255,7 +285,7 @@ mod tests {
         let mut batch = Batch::default();
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(1);
         let mut aug = rand_pcg::Pcg64Mcg::seed_from_u64(2);
-        data.sample(500, &mut rng, &mut aug, &mut batch);
+        data.sample(500, &mut rng, &mut aug, None, &mut batch);
         assert_eq!(batch.len(), 500);
         for i in 0..batch.len() {
             // The ray projects back to a pixel centre; recover the pixel and check the target.
@@ -265,6 +295,8 @@ mod tests {
             let (u, v, _) = cam.project(&p).unwrap();
             let (x, y) = ((u - 0.5).round(), (v - 0.5).round());
             assert!((u - 0.5 - x).abs() < 1e-4 && (v - 0.5 - y).abs() < 1e-4);
+            assert_eq!(batch.pixels[i], [x as u32, y as u32]);
+            assert_eq!(batch.views[i], 0);
             let (x, y) = (x as usize, y as usize);
             let expect = if x < 16 { img.get(x, y) } else { [1.0; 3] };
             assert_eq!(batch.rgb[i], expect);

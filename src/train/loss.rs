@@ -13,6 +13,8 @@ pub use crate::render::config::{LossConfig, MaskBce};
 pub use crate::render::schedule::LossWeights;
 
 use crate::field::Real;
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use crate::render::{
     BatchCounts, ModelError, NeusModel, OccupancyGrid, PhaseTimes, RayBatch, RayLoss,
     SampleWeights, Schedule,
@@ -120,6 +122,9 @@ pub struct PixelLoss<'a> {
     pub in_mask: bool,
     /// `Σ mask` over the batch (0 without mask).
     pub mask_sum: f64,
+    /// `[n]` where each ray's mean absolute colour error `Σ_k |c_k − ĉ_k| / 3` is written (as
+    /// `f32` bits), for the error map ([`crate::train::error_map`]); `None`: not recorded.
+    pub ray_errors: Option<&'a [AtomicU32]>,
 }
 
 impl<'a> PixelLoss<'a> {
@@ -133,6 +138,15 @@ impl<'a> PixelLoss<'a> {
             mask_sum: targets
                 .mask
                 .map_or(0.0, |m| m.iter().map(|&v| v as f64).sum()),
+            ray_errors: None,
+        }
+    }
+
+    /// The same loss, writing each ray's colour error into `sink` (`[n]`, one slot per ray).
+    pub fn with_ray_errors(self, sink: &'a [AtomicU32]) -> Self {
+        Self {
+            ray_errors: Some(sink),
+            ..self
         }
     }
 
@@ -205,6 +219,15 @@ impl RayLoss for PixelLoss<'_> {
                 });
             }
         }
+        if let Some(e) = self.ray_errors {
+            if e.len() < n {
+                return Err(ModelError::Shape {
+                    what: "ray error sink",
+                    expected: n,
+                    got: e.len(),
+                });
+            }
+        }
         Ok(())
     }
 
@@ -234,8 +257,10 @@ impl RayLoss for PixelLoss<'_> {
             _ => 1.0,
         };
         let mut g_rgb = [0.0; 3];
+        let mut abs_err = 0.0;
         for k in 0..3 {
             let diff = rgb[k] - tgt[k] as f64;
+            abs_err += diff.abs();
             sums.sq_all += diff * diff;
             if valid {
                 sums.l1 += mw * diff.abs();
@@ -243,6 +268,10 @@ impl RayLoss for PixelLoss<'_> {
                 g_rgb[k] =
                     mw * (l.rgb_l1 as f64 * sign(diff) + l.rgb_mse as f64 * 2.0 * diff) / cnorm;
             }
+        }
+        if let Some(sink) = self.ray_errors {
+            // Each ray's slot is written once per step, by the shard that owns the ray.
+            sink[r].store(((abs_err / 3.0) as f32).to_bits(), Ordering::Relaxed);
         }
         let mut g_op = 0.0;
         if let Some(mask) = self.targets.mask {
@@ -291,11 +320,14 @@ pub trait TrainStep {
         sched: Schedule,
         occ: Option<&OccupancyGrid>,
         step_seed: u64,
-    ) -> Result<StepOutput, ModelError>;
-}
+    ) -> Result<StepOutput, ModelError> {
+        self.train_step_recording(params, grads, batch, targets, sched, occ, step_seed, None)
+    }
 
-impl TrainStep for NeusModel {
-    fn train_step<T: Real>(
+    /// [`TrainStep::train_step`], also writing each ray's mean absolute colour error into
+    /// `ray_errors` (`[n]`, `f32` bits; see [`PixelLoss::ray_errors`]) when given.
+    #[allow(clippy::too_many_arguments)]
+    fn train_step_recording<T: Real>(
         &self,
         params: &[T],
         grads: &mut [T],
@@ -304,8 +336,26 @@ impl TrainStep for NeusModel {
         sched: Schedule,
         occ: Option<&OccupancyGrid>,
         step_seed: u64,
+        ray_errors: Option<&[AtomicU32]>,
+    ) -> Result<StepOutput, ModelError>;
+}
+
+impl TrainStep for NeusModel {
+    fn train_step_recording<T: Real>(
+        &self,
+        params: &[T],
+        grads: &mut [T],
+        batch: &RayBatch,
+        targets: &Targets,
+        sched: Schedule,
+        occ: Option<&OccupancyGrid>,
+        step_seed: u64,
+        ray_errors: Option<&[AtomicU32]>,
     ) -> Result<StepOutput, ModelError> {
-        let loss = PixelLoss::new(&self.config.loss, sched.loss, *targets);
+        let mut loss = PixelLoss::new(&self.config.loss, sched.loss, *targets);
+        if let Some(sink) = ray_errors {
+            loss = loss.with_ray_errors(sink);
+        }
         let b = self.forward_backward(params, grads, batch, &loss, sched, occ, step_seed)?;
         Ok(StepOutput {
             inv_s: b.inv_s,
@@ -414,5 +464,59 @@ mod tests {
             assert_eq!((s.l1, s.sq_valid), (0.0, 0.0));
             assert!(s.sq_all > 0.0);
         }
+    }
+
+    /// The error sink receives each ray's mean absolute colour error (valid or not) and changes
+    /// neither the gradients nor the sums; a sink shorter than the batch is refused.
+    #[test]
+    fn ray_error_sink_records_the_mean_absolute_error() {
+        let rgb_t = [[0.2f32, 0.9, 0.5], [0.1, 0.1, 0.1]];
+        let t = Targets {
+            rgb: &rgb_t,
+            mask: None,
+        };
+        let w = LossWeights {
+            rgb_l1: 1.0,
+            rgb_mse: 0.5,
+            eikonal: 0.0,
+            mask: 0.0,
+            curvature: 0.0,
+        };
+        let counts = BatchCounts {
+            n_rays: 2,
+            n_valid: 1,
+            n_samples: 4,
+        };
+        let plain = PixelLoss::new(&LossConfig::default(), w, t);
+        let sink: Vec<AtomicU32> = (0..2).map(|_| AtomicU32::new(0)).collect();
+        let rec = plain.with_ray_errors(&sink);
+        let rgb = [0.5, 0.5, 0.5];
+        let (mut s1, mut s2) = (PixelLossSums::default(), PixelLossSums::default());
+        assert_eq!(
+            plain.ray(&counts, 0, rgb, 0.3, true, &mut s1),
+            rec.ray(&counts, 0, rgb, 0.3, true, &mut s2)
+        );
+        assert_eq!(s1, s2);
+        rec.ray(&counts, 1, [0.4, 0.1, 0.0], 0.0, false, &mut s2);
+        let got = |i: usize| f32::from_bits(sink[i].load(Ordering::Relaxed));
+        assert!(
+            (got(0) - (0.3 + 0.4 + 0.0) / 3.0).abs() < 1e-6,
+            "{}",
+            got(0)
+        );
+        assert!(
+            (got(1) - (0.3 + 0.0 + 0.1) / 3.0).abs() < 1e-6,
+            "{}",
+            got(1)
+        );
+        assert!(rec.check(2).is_ok());
+        let short = plain.with_ray_errors(&sink[..1]);
+        assert!(matches!(
+            short.check(2),
+            Err(ModelError::Shape {
+                what: "ray error sink",
+                ..
+            })
+        ));
     }
 }

@@ -1,11 +1,12 @@
 //! Training: the loss ([`loss`]: colour, mask and the regularisers' weights, behind the
 //! renderer's `RayLoss` interface), the optimiser ([`adam`]: AdamW with per-group learning rates
 //! and a NaN guard), the learning-rate schedule, training rays, checkpoints, the training loop
-//! (with the dynamic ray count) and image metrics.
+//! (with the dynamic ray count and error-map sampling, [`error_map`]) and image metrics.
 
 pub mod adam;
 pub mod checkpoint;
 pub mod data;
+pub mod error_map;
 pub mod hull;
 pub mod loss;
 pub mod metrics;

@@ -5,6 +5,7 @@
 use super::adam::{AdamW, AdamWConfig, OptimError};
 use super::checkpoint::TrainState;
 use super::data::{Batch, TrainData};
+use super::error_map::{ErrorMap, ErrorMapConfig};
 use super::hull::InitConfig;
 use super::loss::{StepOutput, Targets, TrainStep};
 use super::schedule::LrSchedule;
@@ -13,6 +14,7 @@ use crate::render::model::{ModelError, NeusModel, RayBatch};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
+use std::sync::atomic::AtomicU32;
 
 /// Optimisation settings (`[train]` in the TOML config).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -34,6 +36,9 @@ pub struct TrainConfig {
     /// The unseen-space prior (`[train.unseen]`; off by default, see [`super::unseen`]).
     #[serde(skip_serializing_if = "UnseenConfig::is_default")]
     pub unseen: UnseenConfig,
+    /// Error-map ray sampling (`[train.error_map]`; off by default, see [`super::error_map`]).
+    #[serde(skip_serializing_if = "ErrorMapConfig::is_default")]
+    pub error_map: ErrorMapConfig,
 }
 
 impl Default for TrainConfig {
@@ -46,6 +51,7 @@ impl Default for TrainConfig {
             max_consecutive_skips: 20,
             init: InitConfig::default(),
             unseen: UnseenConfig::default(),
+            error_map: ErrorMapConfig::default(),
         }
     }
 }
@@ -120,6 +126,8 @@ pub struct Trainer<'a> {
     batch: Batch,
     consecutive_skips: u32,
     unseen: Option<UnseenPrior>,
+    /// `[rays]` per-ray colour errors of the step (error-map sampling only).
+    ray_errors: Vec<AtomicU32>,
 }
 
 impl<'a> Trainer<'a> {
@@ -141,6 +149,7 @@ impl<'a> Trainer<'a> {
             batch: Batch::default(),
             consecutive_skips: 0,
             unseen: None,
+            ray_errors: Vec::new(),
         }
     }
 
@@ -160,6 +169,11 @@ impl<'a> Trainer<'a> {
             occ: self.model.new_occupancy_grid(),
             num_rays: self.model.config.render.train_num_rays.max(1),
             skipped_steps: 0,
+            error_map: self
+                .config
+                .error_map
+                .enabled()
+                .then(|| ErrorMap::new(&self.config.error_map, &self.data.sizes())),
         }
     }
 
@@ -179,12 +193,27 @@ impl<'a> Trainer<'a> {
             );
         let mut rng = Pcg64Mcg::seed_from_u64(step_seed(self.seed, step, Stream::Rays));
         let mut aug_rng = Pcg64Mcg::seed_from_u64(step_seed(self.aug_seed, step, Stream::Augment));
-        self.data
-            .sample(state.num_rays, &mut rng, &mut aug_rng, &mut self.batch);
+        if let Some(m) = state.error_map.as_mut().filter(|m| m.rebuilds_at(step)) {
+            m.rebuild();
+        }
+        self.data.sample(
+            state.num_rays,
+            &mut rng,
+            &mut aug_rng,
+            state.error_map.as_ref(),
+            &mut self.batch,
+        );
+        let sink = state.error_map.is_some().then(|| {
+            let n = self.batch.len();
+            if self.ray_errors.len() < n {
+                self.ray_errors.resize_with(n, || AtomicU32::new(0));
+            }
+            &self.ray_errors[..n]
+        });
         // The gradient buffer is zero here: it starts zeroed and every optimiser step (or
         // skipped step) below leaves it zeroed.
         let b = &self.batch;
-        let out = model.train_step::<f32>(
+        let out = model.train_step_recording::<f32>(
             &state.params,
             &mut self.grads,
             &RayBatch {
@@ -200,7 +229,11 @@ impl<'a> Trainer<'a> {
             sched,
             rcfg.occupancy.enabled.then_some(&state.occ),
             step_seed(self.seed, step, Stream::Jitter),
+            sink,
         )?;
+        if let (Some(m), Some(errors)) = (state.error_map.as_mut(), sink) {
+            m.record(&b.views, &b.pixels, errors);
+        }
         let unseen = self.unseen.as_mut().and_then(|u| {
             u.add_grad(
                 model,
