@@ -11,7 +11,9 @@
 //!   `e = Σ_k |c_k − ĉ_k| / 3` (rendered against the target, composited on the background where
 //!   masks exist), moves its cell's value by `err ← err + ema·(e − err)`, in ray order;
 //! - every `rebuild_every` steps the per-view distribution is rebuilt with cell weights
-//!   `max(err, floor)^power`: `floor` keeps every cell reachable, `power` sharpens the focus;
+//!   `w = max(err, floor)^power`: `floor` keeps every cell reachable, `power` sharpens the focus;
+//!   then capped at `cap` times the view's mean weight, so that a few cells whose error the rays
+//!   do not remove (silhouette edges a pixel off, on `relief`) do not take the view's rays;
 //! - a ray still draws its view uniformly (the view balance of the uniform sampler is kept);
 //!   with probability `share` its pixel comes from that view's distribution (a cell, then a
 //!   uniform pixel inside the cell), otherwise uniformly from the whole view.
@@ -32,13 +34,16 @@ use std::sync::atomic::{AtomicU32, Ordering};
 /// falls below, so unvisited cells are preferred until visited).
 pub const INITIAL_ERROR: f32 = 0.1;
 
+/// The default of [`ErrorMapConfig::cap`].
+pub const CAP: f32 = 32.0;
+
 /// Settings of error-map sampling (`[train.error_map]`). Absent from a config's text while it is
 /// the default (off), so configs and training hashes of runs without it are unchanged.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ErrorMapConfig {
     /// Probability that a ray's pixel is drawn from the error map (0: off, the uniform sampler;
-    /// 0.75 measured on `cup`, `blob` and `thin`).
+    /// 0.75 measured on every suite scene: `results/geometry/error-map-2026-11-25`).
     pub share: f32,
     /// Exponent of the cell weights `max(err, floor)^power` (2).
     pub power: f32,
@@ -50,6 +55,9 @@ pub struct ErrorMapConfig {
     pub floor: f32,
     /// Steps between rebuilds of the distributions (8).
     pub rebuild_every: u64,
+    /// Largest weight of a cell, as a multiple of its view's mean weight before the cap (32;
+    /// 0: no cap). Without it, single cells on `relief` took up to half of a view's draws.
+    pub cap: f32,
 }
 
 impl Default for ErrorMapConfig {
@@ -61,6 +69,7 @@ impl Default for ErrorMapConfig {
             ema: 0.3,
             floor: 0.005,
             rebuild_every: 8,
+            cap: CAP,
         }
     }
 }
@@ -118,6 +127,13 @@ impl ErrorMapConfig {
                 "train.error_map.rebuild_every",
                 "0".into(),
                 "must be at least 1",
+            ));
+        }
+        if !(self.cap == 0.0 || (self.cap.is_finite() && self.cap >= 1.0)) {
+            return Some((
+                "train.error_map.cap",
+                self.cap.to_string(),
+                "must be 0 (no cap) or at least 1",
             ));
         }
         None
@@ -240,15 +256,25 @@ impl ErrorMap {
 
     /// Rebuilds every view's distribution from the current errors.
     pub fn rebuild(&mut self) {
-        let (floor, power) = (self.config.floor, self.config.power);
+        let (floor, power, cap) = (self.config.floor, self.config.power, self.config.cap);
         for v in 0..self.sizes.len() {
             let r = self.offsets[v]..self.offsets[v + 1];
-            let mut acc = 0.0f32;
-            for (q, &e) in self.cdf[r.clone()].iter_mut().zip(&self.err[r]) {
+            let cdf = &mut self.cdf[r.clone()];
+            // The weights first (in `cdf`), then their running sum in place.
+            for (q, &e) in cdf.iter_mut().zip(&self.err[r]) {
                 // A non-finite error cannot enter (`record` skips it), but a cell must never
                 // leave the distribution, so it is read as the floor.
                 let e = if e.is_finite() { e.max(floor) } else { floor };
-                acc += e.powf(power);
+                *q = e.powf(power);
+            }
+            let limit = if cap > 0.0 {
+                cap * cdf.iter().sum::<f32>() / cdf.len() as f32
+            } else {
+                f32::INFINITY
+            };
+            let mut acc = 0.0f32;
+            for q in cdf.iter_mut() {
+                acc += q.min(limit);
                 *q = acc;
             }
         }
@@ -294,19 +320,25 @@ impl ErrorMap {
     /// What the map looks like now, for `metrics.json`.
     pub fn summary(&self) -> ErrorMapSummary {
         let n = self.err.len().max(1);
-        let mut sorted = self.err.clone();
-        sorted.sort_by(|a, b| b.total_cmp(a));
-        let (floor, power) = (self.config.floor, self.config.power);
-        let w = |e: f32| e.max(floor).powf(power) as f64;
-        let total: f64 = sorted.iter().map(|&e| w(e)).sum();
-        let top = sorted.len().div_ceil(10);
-        let top_mass: f64 = sorted[..top].iter().map(|&e| w(e)).sum();
+        // Each cell's probability under the distribution in use, views weighted equally (the
+        // view is drawn uniformly).
+        let mut p: Vec<f64> = Vec::with_capacity(self.cdf.len());
+        for v in 0..self.sizes.len() {
+            let c = &self.cdf[self.offsets[v]..self.offsets[v + 1]];
+            let total = c.last().map_or(1.0, |&t| t as f64);
+            let mut prev = 0.0f64;
+            for &q in c {
+                p.push((q as f64 - prev) / total / self.sizes.len() as f64);
+                prev = q as f64;
+            }
+        }
+        p.sort_by(|a, b| b.total_cmp(a));
         ErrorMapSummary {
             cells: self.err.len(),
             mean_error: self.err.iter().map(|&e| e as f64).sum::<f64>() / n as f64,
             unvisited_share: self.err.iter().filter(|&&e| e == INITIAL_ERROR).count() as f64
                 / n as f64,
-            top_decile_weight: if total > 0.0 { top_mass / total } else { 0.0 },
+            top_decile_weight: p[..p.len().div_ceil(10)].iter().sum(),
         }
     }
 }
@@ -321,8 +353,9 @@ pub struct ErrorMapSummary {
     pub mean_error: f64,
     /// Share of cells no ray ever updated (still at the initial error).
     pub unvisited_share: f64,
-    /// Share of the sampling weight (all views pooled) held by the tenth of the cells with the
-    /// highest error: 0.1 means the map is uniform, 1 that it is all on a few cells.
+    /// Share of the error-map draws (views weighted equally, as they are drawn) that go to the
+    /// tenth of the cells with the highest probability: 0.1 means the map is uniform, 1 that it
+    /// is all on a few cells.
     pub top_decile_weight: f64,
 }
 
@@ -380,6 +413,7 @@ mod tests {
                 },
                 "train.error_map.rebuild_every",
             ),
+            (ErrorMapConfig { cap: 0.5, ..on() }, "train.error_map.cap"),
         ] {
             assert_eq!(bad.invalid().map(|b| b.0), Some(key), "{bad:?}");
         }
@@ -408,29 +442,40 @@ mod tests {
     #[test]
     fn the_distribution_follows_the_weighted_errors() {
         // One view of 4 cells; cell 2 has 10× the error of the others: with power 2 its weight is
-        // 100×, so it gets 100/103 of the draws; cells below the floor weigh the floor.
-        let cfg = ErrorMapConfig {
-            cell_px: 4,
-            floor: 0.01,
-            ..on()
-        };
-        let mut m = ErrorMap::new(&cfg, &[(8, 8)]);
-        m.err = vec![0.02, 0.0, 0.2, 0.02];
-        m.rebuild();
-        let w = [4e-4, 1e-4, 4e-2, 4e-4];
-        let total: f32 = w.iter().sum();
-        let mut count = [0usize; 4];
-        let mut rng = Pcg64Mcg::seed_from_u64(7);
-        let n = 200_000;
-        for _ in 0..n {
-            let (x, y) = m.sample_pixel(0, &mut rng);
-            count[m.cell(0, x, y)] += 1;
-        }
-        for c in 0..4 {
-            let p = w[c] / total;
-            let got = count[c] as f32 / n as f32;
-            let sd = (p * (1.0 - p) / n as f32).sqrt();
-            assert!((got - p).abs() < 5.0 * sd + 1e-4, "cell {c}: {got} vs {p}");
+        // 100×, so without a cap it gets 100/103 of the draws; cells below the floor weigh the
+        // floor. A cap of 2× the mean weight (0.010225) holds cell 2 at 0.02045.
+        let uncapped = [4e-4, 1e-4, 4e-2, 4e-4];
+        let capped = [4e-4, 1e-4, 2.0 * (4e-4 + 1e-4 + 4e-2 + 4e-4) / 4.0, 4e-4];
+        for (cap, w) in [(0.0, uncapped), (2.0, capped)] {
+            let cfg = ErrorMapConfig {
+                cell_px: 4,
+                floor: 0.01,
+                cap,
+                ..on()
+            };
+            let mut m = ErrorMap::new(&cfg, &[(8, 8)]);
+            m.err = vec![0.02, 0.0, 0.2, 0.02];
+            m.rebuild();
+            let total: f32 = w.iter().sum();
+            let mut count = [0usize; 4];
+            let mut rng = Pcg64Mcg::seed_from_u64(7);
+            let n = 200_000;
+            for _ in 0..n {
+                let (x, y) = m.sample_pixel(0, &mut rng);
+                count[m.cell(0, x, y)] += 1;
+            }
+            for c in 0..4 {
+                let p = w[c] / total;
+                let got = count[c] as f32 / n as f32;
+                let sd = (p * (1.0 - p) / n as f32).sqrt();
+                assert!(
+                    (got - p).abs() < 5.0 * sd + 1e-4,
+                    "cap {cap} cell {c}: {got} vs {p}"
+                );
+            }
+            // The summary's top decile (one cell of four) is the top cell's probability.
+            let top = m.summary().top_decile_weight;
+            assert!((top - (w[2] / total) as f64).abs() < 1e-5, "{top}");
         }
     }
 
