@@ -56,7 +56,9 @@ pub struct ErrorMapConfig {
     /// Steps between rebuilds of the distributions (8).
     pub rebuild_every: u64,
     /// Largest weight of a cell, as a multiple of its view's mean weight before the cap (32;
-    /// 0: no cap). Without it, single cells on `relief` took up to half of a view's draws.
+    /// 0: no cap). Without it, single cells on `relief` took up to half of a view's draws;
+    /// with it, `blob` loses what the map gained there (record
+    /// `results/geometry/error-map-2026-11-25`).
     pub cap: f32,
 }
 
