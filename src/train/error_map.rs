@@ -175,13 +175,8 @@ impl ErrorMap {
     /// A fresh map for views of `sizes` (`(width, height)` in pixels, training-view order), every
     /// cell at [`INITIAL_ERROR`], its distribution built.
     pub fn new(config: &ErrorMapConfig, sizes: &[(u32, u32)]) -> Self {
-        let c = config.cell_px.max(1);
-        let mut offsets = vec![0];
-        for &(w, h) in sizes {
-            let n = (w.div_ceil(c) * h.div_ceil(c)) as usize;
-            offsets.push(offsets.last().unwrap() + n);
-        }
-        let n = *offsets.last().unwrap();
+        let offsets = cell_offsets(config.cell_px, sizes);
+        let n = offsets[sizes.len()];
         let mut m = Self {
             config: config.clone(),
             sizes: sizes.to_vec(),
@@ -200,13 +195,13 @@ impl ErrorMap {
         err: Vec<f32>,
         cdf: Vec<f32>,
     ) -> Result<Self, ErrorMapError> {
-        let fresh = Self::new(config, sizes);
-        if err.len() != fresh.err.len() || cdf.len() != fresh.cdf.len() {
+        let offsets = cell_offsets(config.cell_px, sizes);
+        let n = offsets[sizes.len()];
+        if err.len() != n || cdf.len() != n {
             return Err(ErrorMapError::Mismatch {
                 found: format!("{} and {} cells", err.len(), cdf.len()),
                 expected: format!(
-                    "{} cells ({} views, cells of {} px)",
-                    fresh.err.len(),
+                    "{n} cells ({} views, cells of {} px)",
                     sizes.len(),
                     config.cell_px
                 ),
@@ -219,7 +214,7 @@ impl ErrorMap {
             )));
         }
         for v in 0..sizes.len() {
-            let c = &cdf[fresh.offsets[v]..fresh.offsets[v + 1]];
+            let c = &cdf[offsets[v]..offsets[v + 1]];
             let ok = c.iter().all(|x| x.is_finite())
                 && c.windows(2).all(|p| p[0] <= p[1])
                 && c.last().is_none_or(|&t| t > 0.0);
@@ -229,7 +224,13 @@ impl ErrorMap {
                 )));
             }
         }
-        Ok(Self { err, cdf, ..fresh })
+        Ok(Self {
+            config: config.clone(),
+            sizes: sizes.to_vec(),
+            offsets,
+            err,
+            cdf,
+        })
     }
 
     /// The settings the map was made with.
@@ -343,6 +344,18 @@ impl ErrorMap {
             top_decile_weight: p[..p.len().div_ceil(10)].iter().sum(),
         }
     }
+}
+
+/// `[n_views + 1]` start of each view's cells for views of `sizes` cut into cells of `cell_px`.
+fn cell_offsets(cell_px: u32, sizes: &[(u32, u32)]) -> Vec<usize> {
+    let mut offsets = Vec::with_capacity(sizes.len() + 1);
+    let mut n = 0;
+    offsets.push(0);
+    for &(w, h) in sizes {
+        n += (w.div_ceil(cell_px) * h.div_ceil(cell_px)) as usize;
+        offsets.push(n);
+    }
+    offsets
 }
 
 /// The error map at the end of training (`metrics.json`, `train.error_map`).
