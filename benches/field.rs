@@ -16,7 +16,9 @@
 //!    1024 samples per ray): `train_step` (forward + backward with 6-tap finite-difference
 //!    normals), then `AdamW::step_and_zero_grads` over all parameters. Samples/s for `train_step`
 //!    alone and for the whole iteration, the time per phase, the MLP GFLOP/s and the fraction of
-//!    the FMA peak, an estimate of the hash-grid memory traffic;
+//!    the FMA peak, an estimate of the hash-grid memory traffic; then the same iteration with the
+//!    recipe's curvature loss on, and with one-sided differences (`render.fd_central_every = 4`,
+//!    opt-in) before and during the curvature ramp, each against its central-difference peer;
 //! 5. the hash-grid paths alone (general / per-level stencil / level-parallel batch), one thread;
 //! 6. the training iteration with smaller hash tables (T = 2^17, 2^16) as CPU presets may use;
 //! 7. rendering (forward only) and SDF queries at random points.
@@ -29,7 +31,8 @@
 //! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
 //! `NEUS_AUG_BENCH_QUICK=1` runs only the FMA peak and the default network's iteration;
 //! `NEUS_AUG_BENCH_MLP_ONLY=1` stops after the MLP products and the SDF layer's parts (0–2);
-//! `NEUS_AUG_CHUNK` overrides `chunk_samples`. Profiling aids (callgrind, no AVX-512 there: build
+//! `NEUS_AUG_CHUNK` overrides `chunk_samples`, `NEUS_AUG_BENCH_FD_EVERY` the main measurement's
+//! `render.fd_central_every`. Profiling aids (callgrind, no AVX-512 there: build
 //! with `RUSTFLAGS="-C target-cpu=x86-64-v3"`): `NEUS_AUG_BENCH_HASH_ONLY=<log2 T>` runs only the
 //! hash-grid paths, `NEUS_AUG_BENCH_STEP_ONLY=1` two small training steps.
 
@@ -38,6 +41,7 @@
 #[global_allocator]
 static ALLOC: neus_aug::field::alloc::LargeAligned = neus_aug::field::alloc::LargeAligned;
 
+use neus_aug::field::hashgrid::{stencil_rows, Sides};
 use neus_aug::render::rays::march_rays;
 use neus_aug::render::{ModelConfig, NeusModel, OccupancyGrid, PhaseTimes, RayBatch};
 use neus_aug::train::trainer::next_num_rays;
@@ -826,18 +830,7 @@ fn hash_paths(model: &NeusModel, params: &[f32], pts: &[[[f32; 3]; 7]]) {
     let mut grad = vec![0f32; table.len()];
     let chunk = 512;
     let mut enc = vec![0f32; 7 * chunk * d];
-    let rows_of = |i: usize| -> [usize; 7] {
-        let b = chunk + 6 * i;
-        [
-            i * d,
-            b * d,
-            (b + 1) * d,
-            (b + 2) * d,
-            (b + 3) * d,
-            (b + 4) * d,
-            (b + 5) * d,
-        ]
-    };
+    let rows_of = |i: usize| stencil_rows(i, chunk + 6 * i, d);
     let split = |p: &[[f32; 3]; 7]| (p[0], [0, 1, 2].map(|a| [p[1 + 2 * a][a], p[2 + 2 * a][a]]));
     let active = g.levels.len();
     let rounds: usize = std::env::var("NEUS_AUG_ROUNDS")
@@ -863,7 +856,7 @@ fn hash_paths(model: &NeusModel, params: &[f32], pts: &[[[f32; 3]; 7]]) {
                         1.0,
                         active,
                         &mut enc,
-                        rows_of,
+                        |i| (rows_of(i), Sides::Both),
                     ),
                     5 => g.encode_fd_backward_batch(
                         &xs[r.clone()],
@@ -871,7 +864,7 @@ fn hash_paths(model: &NeusModel, params: &[f32], pts: &[[[f32; 3]; 7]]) {
                         1.0,
                         active,
                         &enc,
-                        rows_of,
+                        |i| (rows_of(i), Sides::Both),
                         &mut grad,
                     ),
                     _ => {
@@ -922,6 +915,30 @@ fn perturbed(model: &NeusModel) -> Vec<f32> {
         *v += rng.random_range(-0.01..0.01);
     }
     params
+}
+
+/// One-sided finite differences (`render.fd_central_every = 4`, opt-in; issue 14) against
+/// central ones, on the default network: without the curvature loss (the presets' steps before
+/// their curvature ramp: every sample one-sided) and with it (the recipe's 5e-4: every fourth
+/// sample central, carrying the curvature term). Each pair measured back to back.
+fn fd_sides(peak: f64, secs: f64) {
+    use neus_aug::render::Scheduled;
+    for (phase, curvature) in [("no curvature loss", 0.0), ("curvature loss 5e-4", 5e-4)] {
+        let mut rates = [0.0; 2];
+        for (j, every) in [1u32, 4].into_iter().enumerate() {
+            let mut cfg = ModelConfig::default();
+            cfg.loss.curvature = Scheduled::Constant(curvature);
+            cfg.render.fd_central_every = every;
+            let (m, mut p, o, _) = setup(cfg);
+            let st = train_iterations(&m, &mut p, &o, secs);
+            let label = format!("default network, {phase}, render.fd_central_every = {every}");
+            rates[j] = report(&label, &m, &st, peak, false);
+        }
+        println!(
+            "  one-sided against central differences, {phase}: train_step {:.2}x",
+            rates[1] / rates[0]
+        );
+    }
 }
 
 fn main() {
@@ -994,6 +1011,12 @@ fn main() {
     {
         cfg.render.chunk_samples = c;
     }
+    if let Some(k) = std::env::var("NEUS_AUG_BENCH_FD_EVERY")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        cfg.render.fd_central_every = k;
+    }
     let (model, mut params, occ, (w, cpu)) = setup(cfg);
     println!(
         "\n== SDF queries: occupancy update at warm-up (all {} cells, {:.1}% occupied after): {} points ==",
@@ -1040,6 +1063,7 @@ fn main() {
             l.split_whitespace().skip(1).collect::<Vec<_>>().join(" ")
         );
     }
+    fd_sides(peak, secs / 2.0);
     if quick {
         println!("load average at end: {}", loadavg());
         return;

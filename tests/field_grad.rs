@@ -29,6 +29,90 @@ fn recipe_loss_gradients_match_central_differences() {
     }
 }
 
+/// Forward differences (`render.fd_central_every = 3`, issue 14): without the curvature loss
+/// every sample takes three forward taps; with it every third sample takes central ones and
+/// carries the curvature term, weighted 3. Both backward passes against central differences of
+/// the loss in f64, and the forward scheme really is in use (the eikonal term differs from the
+/// all-central one).
+#[test]
+fn forward_difference_gradients_match_central_differences() {
+    use neus_aug::render::Scheduled;
+    let s = seed();
+    let eikonal_of = |cfg: neus_aug::render::ModelConfig| {
+        let model = NeusModel::new(cfg).unwrap();
+        let p = perturbed_params_f64(&model, s);
+        let b = batch(24, s + 1);
+        let mut g = vec![0.0; p.len()];
+        model
+            .train_step(
+                &p,
+                &mut g,
+                &b.rays(),
+                &b.targets(),
+                model.config.schedule(40),
+                None,
+                99,
+            )
+            .unwrap()
+    };
+    for curvature in [0.0, 0.05] {
+        let mut cfg = tiny_config();
+        cfg.loss.curvature = Scheduled::Constant(curvature);
+        let central = eikonal_of(cfg.clone());
+        cfg.render.fd_central_every = 3;
+        let out = check_full_gradient(cfg.clone());
+        assert!(
+            (out.eikonal - central.eikonal).abs() > 1e-9 * central.eikonal.abs(),
+            "forward differences changed nothing: {} vs {}",
+            out.eikonal,
+            central.eikonal
+        );
+        assert_eq!(out.n_samples, central.n_samples);
+        if curvature > 0.0 {
+            // A third of the samples, weighted 3: the same mean |Δf| up to sampling.
+            let ratio = out.curvature / central.curvature;
+            assert!(
+                (0.5..2.0).contains(&ratio),
+                "curvature {out:?} vs {central:?}"
+            );
+        } else {
+            assert_eq!(out.curvature, 0.0);
+        }
+    }
+}
+
+/// Renders use central differences whatever `render.fd_central_every` says: the same bits.
+#[test]
+fn renders_ignore_the_training_tap_layout() {
+    let model = NeusModel::new(tiny_config()).unwrap();
+    let mut cfg = tiny_config();
+    cfg.render.fd_central_every = 4;
+    let fwd = NeusModel::new(cfg).unwrap();
+    let s = seed();
+    let p = perturbed_params(&model, s);
+    let b = batch(16, s + 3);
+    let rays = b.rays();
+    let a = model
+        .render(&p, &rays, model.config.schedule(50), None)
+        .unwrap();
+    let c = fwd
+        .render(&p, &rays, fwd.config.schedule(50), None)
+        .unwrap();
+    for r in 0..rays.origins.len() {
+        for k in 0..3 {
+            assert_eq!(a.rgb[r][k].to_bits(), c.rgb[r][k].to_bits(), "ray {r}");
+            assert_eq!(
+                a.normal[r][k].to_bits(),
+                c.normal[r][k].to_bits(),
+                "ray {r}"
+            );
+        }
+    }
+    let mut bad = tiny_config();
+    bad.render.fd_central_every = 0;
+    assert!(NeusModel::new(bad).is_err());
+}
+
 /// The learned background (issue 16): its two networks join the check, through the two-layer
 /// compositing `C = C_fg + (1 − O_fg)·C_bg`; every ray counts as valid.
 #[test]

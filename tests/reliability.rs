@@ -399,6 +399,14 @@ fn weak_counts_and_resolutions_name_their_own_key() {
             &["model.render.max_train_num_rays"],
         ),
         ("mesh.coarse_res=0", &["mesh.coarse_res", "= 0"]),
+        (
+            "model.render.fd_central_every=0",
+            &["model.render.fd_central_every", "= 0", "1..=64"],
+        ),
+        (
+            "model.render.fd_central_every=65",
+            &["model.render.fd_central_every", "65"],
+        ),
         ("mesh.fine_res=100000", &["mesh.fine_res", "100000", "2048"]),
         (
             "model.render.background=[2, 2, 2]",

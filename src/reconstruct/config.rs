@@ -414,6 +414,13 @@ impl RunConfig {
                 return Err(invalid(k, n, "must be at least 1"));
             }
         }
+        if !(1..=64).contains(&r.fd_central_every) {
+            return Err(invalid(
+                "model.render.fd_central_every",
+                r.fd_central_every,
+                "must be in 1..=64 (1: central differences on every sample)",
+            ));
+        }
         if !(r.radius.is_finite() && r.radius > 0.0) {
             return Err(invalid(
                 "model.render.radius",

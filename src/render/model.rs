@@ -185,6 +185,13 @@ impl NeusModel {
                 why: "must be > 0",
             });
         }
+        if !(1..=64).contains(&r.fd_central_every) {
+            return Err(ModelError::Invalid {
+                key: "render.fd_central_every",
+                value: r.fd_central_every.to_string(),
+                why: "must be in 1..=64",
+            });
+        }
         if r.occupancy.resolution == 0 || r.occupancy.resolution > 1024 {
             return Err(ModelError::Invalid {
                 key: "render.occupancy.resolution",

@@ -30,6 +30,7 @@ use super::schedule::Schedule;
 use super::workspace::{tap_rows, Groups, GroupsMut, Scratch};
 use super::NeusModel;
 use crate::field::config::AppearanceConfig;
+use crate::field::hashgrid::Sides;
 use crate::field::sh::{sh4, SH_DIM};
 use crate::field::{sigmoid, Real};
 use std::time::Instant;
@@ -77,16 +78,37 @@ struct Chunk<'a, T> {
     app: &'a AppearanceConfig,
     radius: T,
     active: usize,
-    /// Finite-difference step (normalised units) and `1/(2ε)`.
+    /// Finite-difference step (normalised units), `1/ε` and `1/(2ε)`.
     eps: T,
+    inv_eps: T,
     inv_2eps: T,
+    /// Which samples take central differences: 1 = all, 0 = none (forward differences), `k` =
+    /// those whose index in the batch is a multiple of `k` ([`NeusModel::central_every`]).
+    central_every: usize,
     inv_s: T,
     anneal: T,
     bg: [T; 3],
 }
 
 impl NeusModel {
-    fn chunk_consts<T: Real>(&self, ctx: &StepCtx, r0: usize, r1: usize) -> Chunk<'_, T> {
+    /// Which samples of a step take central differences (see [`Chunk::central_every`]):
+    /// `render.fd_central_every = 1` gives all; `k > 1` gives every `k`-th while the curvature
+    /// loss is on (`curvature`), none otherwise.
+    fn central_every(&self, curvature: bool) -> usize {
+        match self.config.render.fd_central_every as usize {
+            0 | 1 => 1,
+            k if curvature => k,
+            _ => 0,
+        }
+    }
+
+    fn chunk_consts<T: Real>(
+        &self,
+        ctx: &StepCtx,
+        r0: usize,
+        r1: usize,
+        central_every: usize,
+    ) -> Chunk<'_, T> {
         let samples = ctx.samples;
         let s0 = samples.ray_start[r0];
         let s1 = samples.ray_start[r1];
@@ -106,7 +128,9 @@ impl NeusModel {
             radius: T::from_f32(self.config.render.radius),
             active,
             eps,
+            inv_eps: T::ONE / eps,
             inv_2eps: T::ONE / (eps + eps),
+            central_every,
             inv_s: T::from_f64(ctx.inv_s),
             anneal: T::from_f32(ctx.sched.cos_anneal),
             bg: self.config.render.background.map(T::from_f32),
@@ -128,7 +152,8 @@ impl NeusModel {
         sums: &mut Sums<L::Sums>,
         times: &mut PhaseTimes,
     ) {
-        let c = self.chunk_consts::<T>(ctx, r0, r1);
+        let curvature = loss.sample_weights(&ctx.counts).curvature > 0.0;
+        let c = self.chunk_consts::<T>(ctx, r0, r1, self.central_every(curvature));
         self.forward(p, ctx, &c, sc, times);
         let t_bg = Instant::now();
         self.background_forward(p, ctx, &c, sc);
@@ -175,7 +200,9 @@ impl NeusModel {
         sc: &mut Scratch<f32>,
         out: &mut Vec<RayResult>,
     ) {
-        let c = self.chunk_consts::<f32>(ctx, r0, r1);
+        // Central differences on every sample: renders and their normals do not depend on the
+        // training's tap layout.
+        let c = self.chunk_consts::<f32>(ctx, r0, r1, 1);
         let mut times = PhaseTimes::default();
         self.forward(p, ctx, &c, sc, &mut times);
         self.background_forward(p, ctx, &c, sc);
@@ -245,8 +272,8 @@ impl NeusModel {
         times.color_fwd += t_col.elapsed().as_secs_f64();
     }
 
-    /// Positions, taps and their hash encodings: `points`, `tap_points`, `dirs`, `ray_t`,
-    /// `encoding`.
+    /// Positions, taps and their hash encodings: `points`, `tap_points`, `tap_off`, `dirs`,
+    /// `ray_t`, `encoding`.
     #[inline]
     fn encode_forward<T: Real>(
         &self,
@@ -259,28 +286,49 @@ impl NeusModel {
         let (n, d, eps, radius) = (c.n, c.d, c.eps, c.radius);
         sc.points.clear();
         sc.tap_points.clear();
+        sc.tap_off.clear();
+        sc.tap_off.push(0);
+        sc.tap_sides.clear();
         sc.dirs.clear();
         sc.ray_t.clear();
+        let mut m = 0;
         for r in c.r0..c.r1 {
             let o = ctx.batch.origins[r].map(T::from_f32);
             let dir = ctx.batch.dirs[r].map(T::from_f32);
             for s in samples.range(r) {
                 let t = T::from_f32(samples.t[s]);
                 let x = [o[0] + dir[0] * t, o[1] + dir[1] * t, o[2] + dir[2] * t];
-                // Taps x ± ε·e_a, clamped to the box.
+                // One-sided samples alternate + and − (in runs of `k` between central ones), so
+                // the differences' first-order errors cancel on average.
+                let sides = match c.central_every {
+                    1 => Sides::Both,
+                    0 if s % 2 == 0 => Sides::Plus,
+                    0 => Sides::Minus,
+                    k if s % k == 0 => Sides::Both,
+                    k if (s / k) % 2 == 0 => Sides::Plus,
+                    _ => Sides::Minus,
+                };
+                // Taps x ± ε·e_a, clamped to the box; an unused side's taps are the centre (they
+                // stay in the centre's cell, and the stencil skips them).
+                let used = sides.slots();
                 let taps = [0, 1, 2].map(|a| {
+                    let tap = |p: usize, v: T| if used.contains(&p) { v } else { x[a] };
                     [
-                        (x[a] + eps).maxv(-radius).minv(radius),
-                        (x[a] - eps).maxv(-radius).minv(radius),
+                        tap(0, (x[a] + eps).maxv(-radius).minv(radius)),
+                        tap(1, (x[a] - eps).maxv(-radius).minv(radius)),
                     ]
                 });
+                m += if sides == Sides::Both { 6 } else { 3 };
                 sc.points.push(x);
                 sc.tap_points.push(taps);
+                sc.tap_off.push(m);
+                sc.tap_sides.push(sides);
                 sc.dirs.push(dir);
                 sc.ray_t.push(t);
             }
         }
-        sc.encoding.resize(7 * n * d, T::ZERO);
+        sc.encoding.resize((n + m + 1) * d, T::ZERO);
+        let (off, sides) = (&sc.tap_off, &sc.tap_sides);
         self.grid.encode_fd_batch(
             p.hash,
             &sc.points,
@@ -288,7 +336,7 @@ impl NeusModel {
             radius,
             c.active,
             &mut sc.encoding,
-            |i| tap_rows(i, n, d),
+            |i| tap_rows(i, n, d, off, sides),
         );
     }
 
@@ -297,15 +345,16 @@ impl NeusModel {
     #[inline]
     fn sdf_forward<T: Real>(&self, p: &Groups<T>, c: &Chunk<T>, sc: &mut Scratch<T>) {
         let (n, fdim, wh) = (c.n, c.fdim, c.wh);
+        let m = sc.tap_off[n];
         sc.sdf_feature.resize(n * fdim, T::ZERO);
-        sc.tap_sdf.resize(6 * n, T::ZERO);
+        sc.tap_sdf.resize(m, T::ZERO);
         {
             // Taps need only the SDF channel: computed in the hidden layer's epilogue.
             let tap_sdf = &mut sc.tap_sdf;
             self.sdf_mlp.forward_hidden_with(
                 p.sdf,
                 &sc.encoding,
-                7 * n,
+                n + m,
                 &mut sc.sdf_tape,
                 |i, h| {
                     if i >= n {
@@ -330,7 +379,8 @@ impl NeusModel {
         sc: &mut Scratch<T>,
     ) {
         let samples = ctx.samples;
-        let (n, fdim, dc, app, inv_2eps) = (c.n, c.fdim, c.dc, c.app, c.inv_2eps);
+        let (n, fdim, dc, app) = (c.n, c.fdim, c.dc, c.app);
+        let (inv_eps, inv_2eps) = (c.inv_eps, c.inv_2eps);
         let view = T::from_f32(ctx.sched.view_dependence);
         sc.sdf_grad.resize(n, [T::ZERO; 3]);
         sc.normal.resize(n, [T::ZERO; 3]);
@@ -344,12 +394,23 @@ impl NeusModel {
             };
             let pr = T::from_f32(ctx.batch.p.get(r).copied().unwrap_or(0.0));
             for _ in samples.range(r) {
-                let tp = &sc.tap_sdf[6 * i..6 * i + 6];
-                let gr = [
-                    (tp[0] - tp[1]) * inv_2eps,
-                    (tp[2] - tp[3]) * inv_2eps,
-                    (tp[4] - tp[5]) * inv_2eps,
-                ];
+                let tp = &sc.tap_sdf[sc.tap_off[i]..sc.tap_off[i + 1]];
+                let gr = if tp.len() == 6 {
+                    [
+                        (tp[0] - tp[1]) * inv_2eps,
+                        (tp[2] - tp[3]) * inv_2eps,
+                        (tp[4] - tp[5]) * inv_2eps,
+                    ]
+                } else {
+                    // One-sided: ±(f(x ± ε·e_a) − f(x)) / ε.
+                    let f = sc.sdf_feature[i * fdim];
+                    let sgn = if sc.tap_sides[i] == Sides::Minus {
+                        -inv_eps
+                    } else {
+                        inv_eps
+                    };
+                    [(tp[0] - f) * sgn, (tp[1] - f) * sgn, (tp[2] - f) * sgn]
+                };
                 let len = (gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]).sqrt();
                 let l = len.maxv(T::from_f64(1e-12));
                 let nr = [gr[0] / l, gr[1] / l, gr[2] / l];
@@ -611,13 +672,17 @@ impl NeusModel {
         sc: &mut Scratch<T>,
         sums: &mut Sums<L::Sums>,
     ) {
-        let (n, fdim, dc, app, eps, inv_2eps) = (c.n, c.fdim, c.dc, c.app, c.eps, c.inv_2eps);
+        let (n, fdim, dc, app, eps) = (c.n, c.fdim, c.dc, c.app, c.eps);
+        let (inv_eps, inv_2eps) = (c.inv_eps, c.inv_2eps);
         sc.d_sdf_feature.resize(n * fdim, T::ZERO);
-        sc.d_tap_sdf.resize(6 * n, T::ZERO);
+        sc.d_tap_sdf.resize(sc.tap_off[n], T::ZERO);
         let w = loss.sample_weights(&ctx.counts);
         let c_eik = T::from_f64(w.eikonal);
         let inv_eps2 = T::ONE / (eps * eps);
-        let c_curv = T::from_f64(w.curvature) * inv_eps2;
+        // Only every `k`-th sample carries the curvature term when the others take forward
+        // differences: weighted `k`, its sum estimates the sum over all samples.
+        let k_curv = c.central_every.max(1) as f64;
+        let c_curv = T::from_f64(w.curvature * k_curv) * inv_eps2;
         let mut d_inv_s = 0.0f64;
         let mut i = 0;
         for r in c.r0..c.r1 {
@@ -663,18 +728,33 @@ impl NeusModel {
                         dg[k] = dn[k] / tiny;
                     }
                 }
-                for k in 0..3 {
-                    let v = dg[k] * inv_2eps;
-                    sc.d_tap_sdf[6 * i + 2 * k] = v;
-                    sc.d_tap_sdf[6 * i + 2 * k + 1] = -v;
+                let (o, o1) = (sc.tap_off[i], sc.tap_off[i + 1]);
+                if o1 - o == 3 {
+                    // One-sided: ∇f_a = ±(f(x ± ε·e_a) − f(x)) / ε.
+                    let sgn = if sc.tap_sides[i] == Sides::Minus {
+                        -inv_eps
+                    } else {
+                        inv_eps
+                    };
+                    for k in 0..3 {
+                        let v = dg[k] * sgn;
+                        sc.d_tap_sdf[o + k] = v;
+                        dout[0] -= v;
+                    }
+                } else {
+                    for k in 0..3 {
+                        let v = dg[k] * inv_2eps;
+                        sc.d_tap_sdf[o + 2 * k] = v;
+                        sc.d_tap_sdf[o + 2 * k + 1] = -v;
+                    }
                 }
-                if w.curvature > 0.0 {
+                if w.curvature > 0.0 && o1 - o == 6 {
                     // Δf ≈ (Σ taps − 6 f(x)) / ε²; loss mean |Δf| (LossConfig::curvature).
-                    let tp = &sc.tap_sdf[6 * i..6 * i + 6];
+                    let tp = &sc.tap_sdf[o..o1];
                     let lap = (tp.iter().fold(T::ZERO, |a, &v| a + v)
                         - T::from_f64(6.0) * sc.sdf_feature[i * fdim])
                         * inv_eps2;
-                    sums.curv += lap.to_f64().abs();
+                    sums.curv += k_curv * lap.to_f64().abs();
                     let sgn = if lap > T::ZERO {
                         c_curv
                     } else if lap < T::ZERO {
@@ -682,7 +762,7 @@ impl NeusModel {
                     } else {
                         T::ZERO
                     };
-                    for v in &mut sc.d_tap_sdf[6 * i..6 * i + 6] {
+                    for v in &mut sc.d_tap_sdf[o..o1] {
                         *v += sgn;
                     }
                     dout[0] -= T::from_f64(6.0) * sgn;
@@ -706,7 +786,8 @@ impl NeusModel {
         sc: &mut Scratch<T>,
     ) {
         let (n, fdim, d, wh) = (c.n, c.fdim, c.d, c.wh);
-        sc.d_sdf_hidden.resize(7 * n * wh, T::ZERO);
+        let m = sc.tap_off[n];
+        sc.d_sdf_hidden.resize((n + m) * wh, T::ZERO);
         {
             let h = sc.sdf_tape.acts.last().expect("hidden layer");
             let (dh_c, dh_t) = sc.d_sdf_hidden.split_at_mut(n * wh);
@@ -720,16 +801,18 @@ impl NeusModel {
                 dh_c,
             );
             self.sdf_mlp
-                .backward_last(p.sdf, g.sdf, &h[n * wh..], 6 * n, 1, &sc.d_tap_sdf, dh_t);
+                .backward_last(p.sdf, g.sdf, &h[n * wh..], m, 1, &sc.d_tap_sdf, dh_t);
         }
-        sc.d_encoding.resize(7 * n * d, T::ZERO);
+        sc.d_encoding.resize((n + m + 1) * d, T::ZERO);
+        // The spare row (the − taps of forward differences) carries no gradient.
+        sc.d_encoding[(n + m) * d..].fill(T::ZERO);
         // Only the hash-grid columns of the input gradient: the xyz prefix has no parameters.
         let grid_cols = self.grid.xyz_dim()..d;
         self.sdf_mlp.backward_hidden_cols(
             p.sdf,
             g.sdf,
             &sc.encoding,
-            7 * n,
+            n + m,
             &sc.sdf_tape,
             &mut sc.d_sdf_hidden,
             &mut sc.mlp_work,
@@ -740,14 +823,14 @@ impl NeusModel {
     /// The hash grid's backward: scatter-adds `d_encoding` into `g.hash`.
     #[inline]
     fn encode_backward<T: Real>(&self, g: &mut GroupsMut<T>, c: &Chunk<T>, sc: &Scratch<T>) {
-        let (n, d) = (c.n, c.d);
+        let (n, d, off, sides) = (c.n, c.d, &sc.tap_off, &sc.tap_sides);
         self.grid.encode_fd_backward_batch(
             &sc.points,
             &sc.tap_points,
             c.radius,
             c.active,
             &sc.d_encoding,
-            |i| tap_rows(i, n, d),
+            |i| tap_rows(i, n, d, off, sides),
             g.hash,
         );
     }

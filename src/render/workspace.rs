@@ -10,6 +10,7 @@
 
 use super::alpha::AlphaGrad;
 use super::background::BackgroundScratch;
+use crate::field::hashgrid::{stencil_rows, Sides};
 use crate::field::mlp::MlpTape;
 use crate::field::{ParamLayout, Real};
 
@@ -96,21 +97,29 @@ pub(super) struct Groups<'a, T> {
 pub(super) struct Scratch<T> {
     /// `[n][3]` sample positions (interval midpoints), normalised space.
     pub(super) points: Vec<[T; 3]>,
-    /// `[n][axis][+/−]` finite-difference tap coordinates `x_a ± ε`, clamped to the box.
+    /// `[n][axis][+/−]` finite-difference tap coordinates `x_a ± ε`, clamped to the box (the −
+    /// tap is `x_a` itself on samples with forward differences).
     pub(super) tap_points: Vec<[[T; 2]; 3]>,
+    /// `[n + 1]` tap layout: sample `i`'s taps are tap rows `tap_off[i]..tap_off[i + 1]` (six,
+    /// `[+x, −x, +y, −y, +z, −z]`, for central differences; three, `[±x, ±y, ±z]`, for one-sided
+    /// ones; `RenderConfig::fd_central_every`); `m = tap_off[n]` tap rows in all.
+    pub(super) tap_off: Vec<usize>,
+    /// `[n]` the taps each sample uses: both sides (central) or one (see `tap_off`).
+    pub(super) tap_sides: Vec<Sides>,
     /// `[n][3]` unit direction of each sample's ray.
     pub(super) dirs: Vec<[T; 3]>,
     /// `[n]` distance of each sample along its ray (normalised units), the `t` of compositing.
     pub(super) ray_t: Vec<T>,
-    /// `[7n][d]` hash encodings: centres in rows `0..n`, taps in rows `n + 6i + k` ([`tap_rows`]).
+    /// `[n + m + 1][d]` hash encodings: centres in rows `0..n`, sample `i`'s taps in rows
+    /// `n + tap_off[i] + k`, one spare row last ([`tap_rows`]).
     pub(super) encoding: Vec<T>,
-    /// SDF network activations on all `7n` rows (input of its backward).
+    /// SDF network activations on the `n + m` centre and tap rows (input of its backward).
     pub(super) sdf_tape: MlpTape<T>,
     /// `[n][f]` SDF network outputs at the centres: SDF (channel 0) and geometry feature.
     pub(super) sdf_feature: Vec<T>,
-    /// `[n][6]` SDF at the taps, `[axis][+/−]` (channel 0 only, from the hidden layer's epilogue).
+    /// `[m]` SDF at the taps, in tap-row order (channel 0 only, from the hidden layer's epilogue).
     pub(super) tap_sdf: Vec<T>,
-    /// `[n][3]` central-difference SDF gradient `∇f`.
+    /// `[n][3]` finite-difference SDF gradient `∇f` (central or forward, see `tap_off`).
     pub(super) sdf_grad: Vec<[T; 3]>,
     /// `[n][3]` normal `∇f / max(|∇f|, 1e-12)`.
     pub(super) normal: Vec<[T; 3]>,
@@ -139,11 +148,12 @@ pub(super) struct Scratch<T> {
     pub(super) d_color_in: Vec<T>,
     /// `[n][f]` `∂L/∂sdf_feature`.
     pub(super) d_sdf_feature: Vec<T>,
-    /// `[n][6]` `∂L/∂tap_sdf`.
+    /// `[m]` `∂L/∂tap_sdf`.
     pub(super) d_tap_sdf: Vec<T>,
-    /// `[7n][wh]` `∂L/∂` the SDF network's last hidden layer on all rows (then earlier layers).
+    /// `[n + m][wh]` `∂L/∂` the SDF network's last hidden layer on all rows (then earlier layers).
     pub(super) d_sdf_hidden: Vec<T>,
-    /// `[7n][d]` `∂L/∂encoding`; only the hash-grid columns are written.
+    /// `[n + m + 1][d]` `∂L/∂encoding`; only the hash-grid columns are written, the spare row
+    /// is zero.
     pub(super) d_encoding: Vec<T>,
     /// Work buffer of the MLP backward passes (no meaning between calls).
     pub(super) mlp_work: Vec<T>,
@@ -159,19 +169,37 @@ pub(super) struct Scratch<T> {
     pub(super) bg_dt: Vec<T>,
 }
 
-/// Rows of sample `i`'s centre (row `i`) and taps (rows `n + 6i + k`) in the `[7n][d]` buffers.
+/// Rows of sample `i`'s centre (row `i`) and its seven stencil points in the `[n + m + 1][d]`
+/// buffers, in [`crate::field::HashGrid::encode_fd`]'s order (centre, then `[axis][+/−]`), for
+/// the tap layout `off` (`Scratch::tap_off`, `n + 1` entries) and `sides` (`Scratch::tap_sides`),
+/// and the sides in use (see [`crate::field::HashGrid::encode_fd_batch`]).
 #[inline]
-pub(super) fn tap_rows(i: usize, n: usize, d: usize) -> [usize; 7] {
-    let b = n + 6 * i;
-    [
-        i * d,
-        b * d,
-        (b + 1) * d,
-        (b + 2) * d,
-        (b + 3) * d,
-        (b + 4) * d,
-        (b + 5) * d,
-    ]
+pub(super) fn tap_rows(
+    i: usize,
+    n: usize,
+    d: usize,
+    off: &[usize],
+    sides: &[Sides],
+) -> ([usize; 7], Sides) {
+    let o = n + off[i];
+    let side = sides[i];
+    let rows = match side {
+        Sides::Both => stencil_rows(i, o, d),
+        // One-sided: the unused side's taps sit on the centre and are skipped by the
+        // level-parallel stencil; the per-sample fallback writes them into the spare row after
+        // the last tap row, which nothing reads (its gradient row is zero).
+        Sides::Plus | Sides::Minus => {
+            let spare = (n + off[n]) * d;
+            let mut r = [spare; 7];
+            r[0] = i * d;
+            let s = side.slots().start;
+            for a in 0..3 {
+                r[1 + 2 * a + s] = (o + a) * d;
+            }
+            r
+        }
+    };
+    (rows, side)
 }
 
 /// Names of the parameter groups, in the order [`super::NeusModel::new`] lays them out.

@@ -36,7 +36,7 @@ use rand::Rng;
 
 mod stencil;
 
-pub use stencil::{fd_point, fd_points};
+pub use stencil::{fd_point, fd_points, stencil_rows, Sides};
 
 /// One resolution level of the grid.
 #[derive(Debug, Clone, PartialEq)]

@@ -21,6 +21,41 @@ pub fn fd_point<T: Copy>(x: [T; 3], taps: [[T; 2]; 3], p: usize) -> [T; 3] {
     q
 }
 
+/// Row starts (in values, `d` per row) of a stencil's seven points when the centre is row
+/// `centre` and the six taps are the consecutive rows from `first_tap`, in [`fd_point`]'s order.
+#[inline(always)]
+pub fn stencil_rows(centre: usize, first_tap: usize, d: usize) -> [usize; 7] {
+    std::array::from_fn(|p| {
+        if p == 0 {
+            centre * d
+        } else {
+            (first_tap + p - 1) * d
+        }
+    })
+}
+
+/// Which taps of a finite-difference stencil a sample uses in the batched paths
+/// ([`HashGrid::encode_fd_batch`]): both (a central difference) or the `+ε` or the `−ε` ones
+/// alone (a one-sided difference). The taps of an unused side must sit on the centre.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sides {
+    Both,
+    Plus,
+    Minus,
+}
+
+impl Sides {
+    /// The tap slots in use (`0` = `+ε`, `1` = `−ε`).
+    #[inline(always)]
+    pub fn slots(self) -> std::ops::Range<usize> {
+        match self {
+            Sides::Both => 0..2,
+            Sides::Plus => 0..1,
+            Sides::Minus => 1..2,
+        }
+    }
+}
+
 /// The seven points of a finite-difference stencil (see [`fd_point`]).
 #[inline(always)]
 pub fn fd_points<T: Copy>(x: [T; 3], taps: [[T; 2]; 3]) -> [[T; 3]; 7] {

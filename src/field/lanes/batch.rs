@@ -11,7 +11,7 @@ use super::{
     block_backward, block_forward, block_prefetch, corner, faces, gather, prefetch, LaneBlock,
     LaneConsts, Plan, L, LANES,
 };
-use crate::field::hashgrid::{fd_point, HashGrid};
+use crate::field::hashgrid::{fd_point, HashGrid, Sides};
 use crate::field::Real;
 
 /// Samples between planning (and prefetching) a sample and encoding it.
@@ -99,15 +99,22 @@ impl<'a, T: Real> Blocks<'a, T> {
         }
     }
 
-    /// Plans a stencil sample (unit centre `uc`, unit taps `ut`) for every live block into
-    /// `plans` and prefetches from `buf` what the block will touch; false if a tap moves more
-    /// than one cell on an active lane.
+    /// Plans a stencil sample (unit centre `uc`, unit taps `ut` of the `sides` in use)
+    /// for every live block into `plans` and prefetches from `buf` what the block will touch;
+    /// false if a tap moves more than one cell on an active lane.
     #[inline(always)]
-    fn plan_stencil(&self, uc: [T; 3], ut: [[T; 2]; 3], plans: &mut [Plan<T>], buf: &[T]) -> bool {
+    fn plan_stencil(
+        &self,
+        uc: [T; 3],
+        ut: [[T; 2]; 3],
+        sides: Sides,
+        plans: &mut [Plan<T>],
+        buf: &[T],
+    ) -> bool {
         let mut good = true;
         for (bi, blk) in self.blocks.iter().enumerate().take(self.live) {
             let pl = &mut plans[bi];
-            good &= blk.plan(&self.consts[bi], uc, ut, true, pl);
+            good &= blk.plan(&self.consts[bi], uc, ut, sides, true, pl);
             if good {
                 block_prefetch(blk, pl, buf);
             }
@@ -125,7 +132,11 @@ impl HashGrid {
     }
 
     /// Batched [`encode_fd`](Self::encode_fd) over the samples of a chunk: sample `i`'s centre
-    /// `xs[i]` and taps `taps[i]`, rows from `rows(i)`. Uses the level-parallel blocks when
+    /// `xs[i]` and taps `taps[i]`, rows and the [`Sides`] in use from `rows(i)`. The taps of an
+    /// unused side must equal the centre (`taps[i][a][s] == xs[i][a]`); the level-parallel path
+    /// neither computes nor writes their rows (the per-sample fallback writes them, with the
+    /// centre's values), so the caller may point them at one spare row. Uses the level-parallel
+    /// blocks when
     /// `F = 2` (falling back per sample when a tap moves more than one cell), planning each
     /// sample 8 samples before its use and prefetching what it will read. Same
     /// values as calling [`encode_fd`](Self::encode_fd) per sample up to rounding (tested).
@@ -138,13 +149,15 @@ impl HashGrid {
         radius: T,
         active: usize,
         out: &mut [T],
-        rows: impl Fn(usize) -> [usize; 7],
+        rows: impl Fn(usize) -> ([usize; 7], Sides),
     ) {
         self.fd_batch(table, xs, taps, radius, active, out, &rows);
     }
 
     /// Batched [`encode_fd_backward`](Self::encode_fd_backward) (see
-    /// [`encode_fd_batch`](Self::encode_fd_batch)): scatter-adds into `grad`.
+    /// [`encode_fd_batch`](Self::encode_fd_batch)): scatter-adds into `grad`. A forward
+    /// difference's unused tap rows are not read by the level-parallel path; the fallback reads
+    /// them, so they must hold zeros.
     #[allow(clippy::too_many_arguments)]
     pub fn encode_fd_backward_batch<T: Real>(
         &self,
@@ -153,7 +166,7 @@ impl HashGrid {
         radius: T,
         active: usize,
         d_out: &[T],
-        rows: impl Fn(usize) -> [usize; 7],
+        rows: impl Fn(usize) -> ([usize; 7], Sides),
         grad: &mut [T],
     ) {
         self.fd_batch_bwd(xs, taps, radius, active, d_out, &rows, grad);
@@ -244,12 +257,12 @@ impl HashGrid {
         radius: T,
         active: usize,
         out: &mut [T],
-        rows: &dyn Fn(usize) -> [usize; 7],
+        rows: &dyn Fn(usize) -> ([usize; 7], Sides),
     ) {
         assert!(table.len() >= self.n_params() && taps.len() == xs.len());
         let Some(blocks) = self.lane_blocks() else {
             for i in 0..xs.len() {
-                self.encode_fd(table, xs[i], taps[i], radius, active, out, &rows(i));
+                self.encode_fd(table, xs[i], taps[i], radius, active, out, &rows(i).0);
             }
             return;
         };
@@ -259,10 +272,10 @@ impl HashGrid {
         let plan = |ring: &mut Ring<T>, _: &[T], i: usize| {
             let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
             let (plans, ok) = ring.slot_mut(i);
-            *ok = b.plan_stencil(uc, ut, plans, table);
+            *ok = b.plan_stencil(uc, ut, rows(i).1, plans, table);
         };
         let compute = |ring: &Ring<T>, out: &mut [T], i: usize| {
-            let r = rows(i);
+            let (r, sides) = rows(i);
             let (plans, ok) = ring.slot(i);
             if !ok {
                 // Rare: the whole sample through the per-level path.
@@ -277,7 +290,7 @@ impl HashGrid {
                     }
                     continue;
                 }
-                block_forward(blk, &b.consts[bi], &plans[bi], table, out, &br);
+                block_forward(blk, &b.consts[bi], &plans[bi], table, out, &br, sides);
             }
             if self.include_xyz {
                 for p in 0..7 {
@@ -299,13 +312,13 @@ impl HashGrid {
         radius: T,
         active: usize,
         d_out: &[T],
-        rows: &dyn Fn(usize) -> [usize; 7],
+        rows: &dyn Fn(usize) -> ([usize; 7], Sides),
         grad: &mut [T],
     ) {
         assert!(grad.len() >= self.n_params() && taps.len() == xs.len());
         let Some(blocks) = self.lane_blocks() else {
             for i in 0..xs.len() {
-                self.encode_fd_backward(xs[i], taps[i], radius, active, d_out, &rows(i), grad);
+                self.encode_fd_backward(xs[i], taps[i], radius, active, d_out, &rows(i).0, grad);
             }
             return;
         };
@@ -315,10 +328,10 @@ impl HashGrid {
         let plan = |ring: &mut Ring<T>, grad: &[T], i: usize| {
             let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
             let (plans, ok) = ring.slot_mut(i);
-            *ok = b.plan_stencil(uc, ut, plans, grad);
+            *ok = b.plan_stencil(uc, ut, rows(i).1, plans, grad);
         };
         let compute = |ring: &Ring<T>, grad: &mut [T], i: usize| {
-            let r = rows(i);
+            let (r, sides) = rows(i);
             let (plans, ok) = ring.slot(i);
             if !ok {
                 self.encode_fd_backward(xs[i], taps[i], radius, active, d_out, &r, grad);
@@ -326,7 +339,7 @@ impl HashGrid {
             }
             for (bi, blk) in blocks.iter().enumerate().take(b.live) {
                 let br = r.map(|v| v + xd + 2 * blk.level0);
-                block_backward(blk, &b.consts[bi], &plans[bi], grad, d_out, &br);
+                block_backward(blk, &b.consts[bi], &plans[bi], grad, d_out, &br, sides);
             }
         };
         pipeline(xs.len(), &mut ring, grad, plan, compute);
@@ -337,7 +350,7 @@ impl HashGrid {
 mod tests {
     use super::*;
     use crate::field::config::HashGridConfig;
-    use crate::field::hashgrid::fd_points;
+    use crate::field::hashgrid::{fd_points, stencil_rows};
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64Mcg;
 
@@ -386,30 +399,56 @@ mod tests {
                     xs.push(c);
                     taps.push([0, 1, 2].map(|a| [(c[a] + eps).min(r), (c[a] - eps).max(-r)]));
                 }
-                let rows = |i: usize| -> [usize; 7] {
-                    let b = n + 6 * i;
-                    [
-                        i * d,
-                        b * d,
-                        (b + 1) * d,
-                        (b + 2) * d,
-                        (b + 3) * d,
-                        (b + 4) * d,
-                        (b + 5) * d,
-                    ]
+                // Every third sample one-sided, + and − in turn: the other side's taps on the
+                // centre, skipped (their rows alias one spare row, which only the per-sample
+                // fallback writes).
+                let sides = |i: usize| match i % 6 {
+                    1 => Sides::Plus,
+                    3 => Sides::Minus,
+                    _ => Sides::Both,
                 };
-                let mut out = vec![7.0; 7 * n * d];
+                for i in 0..n {
+                    for p in 0..2 {
+                        if !sides(i).slots().contains(&p) {
+                            for a in 0..3 {
+                                taps[i][a][p] = xs[i][a];
+                            }
+                        }
+                    }
+                }
+                let spare = 7 * n * d;
+                let rows = |i: usize| -> ([usize; 7], Sides) {
+                    let mut r = stencil_rows(i, n + 6 * i, d);
+                    for p in 1..7 {
+                        if !sides(i).slots().contains(&((p - 1) % 2)) {
+                            r[p] = spare;
+                        }
+                    }
+                    (r, sides(i))
+                };
+                let mut out = vec![7.0; (7 * n + 1) * d];
                 g.encode_fd_batch(&table, &xs, &taps, r, active, &mut out, rows);
-                let dout: Vec<f64> = (0..7 * n * d)
+                let mut dout: Vec<f64> = (0..(7 * n + 1) * d)
                     .map(|_| rng.random_range(-1.0..1.0))
                     .collect();
+                dout[spare..].fill(0.0);
                 let mut gf = vec![0.0; g.n_params()];
                 g.encode_fd_backward_batch(&xs, &taps, r, active, &dout, rows, &mut gf);
                 let mut gn = vec![0.0; g.n_params()];
                 for i in 0..n {
                     let pts = fd_points(xs[i], taps[i]);
-                    let rw = rows(i);
+                    let (rw, sd) = rows(i);
                     for p in 0..7 {
+                        if p > 0 && !sd.slots().contains(&((p - 1) % 2)) {
+                            // Skipped: its row is never read back; unwritten on the fast path.
+                            assert!(
+                                out[(n + 6 * i + p - 1) * d..(n + 6 * i + p) * d]
+                                    .iter()
+                                    .all(|&v| v == 7.0),
+                                "a skipped tap's own row was written"
+                            );
+                            continue;
+                        }
                         let want = g.encode_naive(&table, pts[p], r, active);
                         for j in 0..d {
                             worst = worst.max((want[j] - out[rw[p] + j]).abs());

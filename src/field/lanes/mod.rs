@@ -23,7 +23,7 @@
 // Numeric kernels index several parallel arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
 
-use super::hashgrid::{Level, PRIMES};
+use super::hashgrid::{Level, Sides, PRIMES};
 use super::Real;
 
 mod batch;
@@ -236,13 +236,16 @@ impl LaneBlock {
     }
 
     /// Fills `pl` with the cells, fractions, tap offsets and (if `indices`) table indices of one
-    /// sample. Returns false if a tap moves more than one cell on an active lane.
+    /// sample; the taps of a side not in `sides` are left out (a one-sided difference: nothing
+    /// of theirs is planned, read or written). Returns false if a tap moves more than one cell
+    /// on an active lane.
     #[inline(always)]
     fn plan<T: Real>(
         &self,
         k: &LaneConsts<T>,
         uc: [T; 3],
         ut: [[T; 2]; 3],
+        sides: Sides,
         indices: bool,
         pl: &mut Plan<T>,
     ) -> bool {
@@ -259,6 +262,10 @@ impl LaneBlock {
                 pl.w[a][1][l] = f;
             }
             for p in 0..2 {
+                if !sides.slots().contains(&p) {
+                    pl.any_far[a][p] = false;
+                    continue;
+                }
                 let (mut bad, mut any) = (0u32, 0u32);
                 let (ftp, farm) = (&mut pl.ft[a][p], &mut pl.far_m[a][p]);
                 for l in 0..LANES {
@@ -400,7 +407,7 @@ fn faces<T: Real>(w: &[[L<T>; 2]; 3], a: usize) -> [L<T>; 4] {
 }
 
 /// Forward of one block for one sample from its plan; `rows[p]` is the start of point `p`'s
-/// 16 values.
+/// 16 values. The rows of taps of a side not in `sides` are not written.
 #[inline(always)]
 fn block_forward<T: Real>(
     blk: &LaneBlock,
@@ -409,6 +416,7 @@ fn block_forward<T: Real>(
     table: &[T],
     out: &mut [T],
     rows: &[usize; 7],
+    sides: Sides,
 ) {
     let cv: [L<T>; 8] = std::array::from_fn(|c| gather(table, &pl.ce[c]));
     let n = 2 * blk.n_levels;
@@ -431,7 +439,7 @@ fn block_forward<T: Real>(
             }
             out[rows[0]..rows[0] + n].copy_from_slice(&v[..n]);
         }
-        for p in 0..2 {
+        for p in sides.slots() {
             let mut ff = [T::ZERO; LANES];
             if pl.any_far[a][p] {
                 for q in 0..4 {
@@ -468,7 +476,8 @@ fn block_forward<T: Real>(
 }
 
 /// Backward of one block for one sample from its plan: scatter-adds the gradient of the 16
-/// values of each of the seven points (`d_out[rows[p]..]`) into `grad`.
+/// values of each of the seven points (`d_out[rows[p]..]`) into `grad`; the rows of taps of a
+/// side not in `sides` are not read.
 #[inline(always)]
 fn block_backward<T: Real>(
     blk: &LaneBlock,
@@ -477,6 +486,7 @@ fn block_backward<T: Real>(
     grad: &mut [T],
     d_out: &[T],
     rows: &[usize; 7],
+    sides: Sides,
 ) {
     let n = 2 * blk.n_levels;
     let load = |r: usize| -> L<T> {
@@ -503,7 +513,7 @@ fn block_backward<T: Real>(
                 d1[l] = pl.w[0][1][l] * g[l];
             }
         }
-        for p in 0..2 {
+        for p in sides.slots() {
             let g = load(rows[1 + 2 * a + p]);
             let mut dfar = [T::ZERO; LANES];
             let (ft, farm) = (&pl.ft[a][p], &pl.far_m[a][p]);
