@@ -82,12 +82,24 @@ struct Chunk<'a, T> {
     eps: T,
     inv_eps: T,
     inv_2eps: T,
-    /// Which samples take central differences: 1 = all, 0 = none (forward differences), `k` =
+    /// Which samples take central differences: 1 = all, 0 = none (one-sided differences), `k` =
     /// those whose index in the batch is a multiple of `k` ([`NeusModel::central_every`]).
     central_every: usize,
     inv_s: T,
     anneal: T,
     bg: [T; 3],
+}
+
+impl<T: Real> Chunk<'_, T> {
+    /// The factor of a one-sided difference `f(x ± ε·e_a) − f(x)`: `+1/ε` or `−1/ε`.
+    #[inline(always)]
+    fn one_sided_scale(&self, side: Sides) -> T {
+        if side == Sides::Minus {
+            -self.inv_eps
+        } else {
+            self.inv_eps
+        }
+    }
 }
 
 impl NeusModel {
@@ -380,7 +392,7 @@ impl NeusModel {
     ) {
         let samples = ctx.samples;
         let (n, fdim, dc, app) = (c.n, c.fdim, c.dc, c.app);
-        let (inv_eps, inv_2eps) = (c.inv_eps, c.inv_2eps);
+        let inv_2eps = c.inv_2eps;
         let view = T::from_f32(ctx.sched.view_dependence);
         sc.sdf_grad.resize(n, [T::ZERO; 3]);
         sc.normal.resize(n, [T::ZERO; 3]);
@@ -404,11 +416,7 @@ impl NeusModel {
                 } else {
                     // One-sided: ±(f(x ± ε·e_a) − f(x)) / ε.
                     let f = sc.sdf_feature[i * fdim];
-                    let sgn = if sc.tap_sides[i] == Sides::Minus {
-                        -inv_eps
-                    } else {
-                        inv_eps
-                    };
+                    let sgn = c.one_sided_scale(sc.tap_sides[i]);
                     [(tp[0] - f) * sgn, (tp[1] - f) * sgn, (tp[2] - f) * sgn]
                 };
                 let len = (gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]).sqrt();
@@ -673,7 +681,7 @@ impl NeusModel {
         sums: &mut Sums<L::Sums>,
     ) {
         let (n, fdim, dc, app, eps) = (c.n, c.fdim, c.dc, c.app, c.eps);
-        let (inv_eps, inv_2eps) = (c.inv_eps, c.inv_2eps);
+        let inv_2eps = c.inv_2eps;
         sc.d_sdf_feature.resize(n * fdim, T::ZERO);
         sc.d_tap_sdf.resize(sc.tap_off[n], T::ZERO);
         let w = loss.sample_weights(&ctx.counts);
@@ -731,11 +739,7 @@ impl NeusModel {
                 let (o, o1) = (sc.tap_off[i], sc.tap_off[i + 1]);
                 if o1 - o == 3 {
                     // One-sided: ∇f_a = ±(f(x ± ε·e_a) − f(x)) / ε.
-                    let sgn = if sc.tap_sides[i] == Sides::Minus {
-                        -inv_eps
-                    } else {
-                        inv_eps
-                    };
+                    let sgn = c.one_sided_scale(sc.tap_sides[i]);
                     for k in 0..3 {
                         let v = dg[k] * sgn;
                         sc.d_tap_sdf[o + k] = v;
