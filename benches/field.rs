@@ -123,17 +123,39 @@ fn fma_isa() -> &'static str {
     }
 }
 
-/// Prints the machine: CPU model, build and CPU ISA features.
+/// The value of the first `/proc/cpuinfo` line whose key is `key` (Linux; `None` elsewhere).
+fn cpuinfo(key: &str) -> Option<String> {
+    let t = std::fs::read_to_string("/proc/cpuinfo").ok()?;
+    t.lines()
+        .find(|l| l.split(':').next().map(str::trim) == Some(key))
+        .and_then(|l| l.split(':').nth(1))
+        .map(|v| v.trim().to_string())
+}
+
+/// The last-level (L3) cache of CPU 0 as sysfs states it (e.g. "32768K"), Linux only.
+fn l3_cache() -> Option<String> {
+    let dir = std::path::Path::new("/sys/devices/system/cpu/cpu0/cache");
+    (0..8).find_map(|i| {
+        let idx = dir.join(format!("index{i}"));
+        let level = std::fs::read_to_string(idx.join("level")).ok()?;
+        (level.trim() == "3")
+            .then(|| std::fs::read_to_string(idx.join("size")).ok())
+            .flatten()
+            .map(|v| v.trim().to_string())
+    })
+}
+
+/// Prints the machine: CPU model (with family and model numbers, which name the core
+/// generation where the model string does not, e.g. "AMD EPYC" on a VM), L3, build and CPU ISA
+/// features.
 fn machine() {
-    let model = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split(':').nth(1))
-                .map(|m| m.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown (no /proc/cpuinfo)".into());
+    let mut model = cpuinfo("model name").unwrap_or_else(|| "unknown (no /proc/cpuinfo)".into());
+    if let (Some(f), Some(m)) = (cpuinfo("cpu family"), cpuinfo("model")) {
+        model = format!("{model} (family {f}, model {m})");
+    }
+    if let Some(l3) = l3_cache() {
+        model = format!("{model}, L3 {l3}");
+    }
     let build: Vec<&str> = [
         ("avx512f", cfg!(target_feature = "avx512f")),
         ("avx2", cfg!(target_feature = "avx2")),
@@ -1040,10 +1062,11 @@ fn main() {
     let (lines, new) = hash_lines(&model, &pts[..pts.len().min(20000)]);
     let g = &model.grid;
     println!(
-        "  hash table {:.1} MB ({} levels, {} dense) + its gradient buffer(s), L3 32 MB: per sample the 7 points touch {:.0} distinct 64-B lines, {:.0} not touched by the previous sample; at the train_step rate that is ~{:.1} GB/s of table reads + {:.1} GB/s of gradient read-modify-write beyond L1 ({:.0}% of the triad bandwidth)",
+        "  hash table {:.1} MB ({} levels, {} dense) + its gradient buffer(s), L3 {}: per sample the 7 points touch {:.0} distinct 64-B lines, {:.0} not touched by the previous sample; at the train_step rate that is ~{:.1} GB/s of table reads + {:.1} GB/s of gradient read-modify-write beyond L1 ({:.0}% of the triad bandwidth)",
         (g.n_params() * 4) as f64 / 1e6,
         g.levels.len(),
         g.levels.iter().filter(|l| !l.hashed).count(),
+        l3_cache().unwrap_or_else(|| "unknown".into()),
         lines,
         new,
         sps * new * 64.0 / 1e9,

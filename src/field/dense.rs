@@ -14,7 +14,7 @@
 //! | build | [`Kernel`] | why |
 //! |---|---|---|
 //! | x86-64 with AVX-512 (`target-cpu=native` on Zen 4, Skylake-X, …) | [`Kernel::WideTiles`] | the whole `6 × 64` (`8 × 32`, `8 × 16`) tile in 24–32 of the 32 `zmm` registers |
-//! | x86-64 with AVX2 + FMA, no AVX-512 (Zen 2/3, Haswell … Alder Lake, `x86-64-v3`) | [`Kernel::PanelTiles`] | the wide tiles need 48 `ymm` accumulators for `N` = 64 and spill; `6 × 16` panels use 12 of the 16, and sums longer than 256 go in `k` chunks that stay in L2 |
+//! | x86-64 with AVX2 + FMA, no AVX-512 (Zen 2/3, Haswell … Alder Lake, `x86-64-v3`) | [`Kernel::PanelTiles`] | the wide tiles need 48 `ymm` accumulators for `N` = 64 and spill; `6 × 16` panels use 12 of the 16, and sums longer than [`PANEL_KC`] go in `k` chunks that stay in L1 |
 //! | anything else (`x86-64-v2`, no target flags, aarch64, …) | [`Kernel::MatrixMultiply`] | `matrixmultiply` picks its own kernel at run time (AVX-512, AVX2+FMA, AVX, SSE2, NEON), so a portable binary still gets the CPU's vector units; portable Rust compiled for SSE2 or unmeasured NEON would not do better |
 //!
 //! Widths other than 16/32/64 always go to `matrixmultiply` ([`Real::gemm`]), which is also the
@@ -107,6 +107,15 @@ impl Kernel {
     }
 }
 
+/// The `k` chunk of [`Kernel::PanelTiles`]: 64 rows of the weight gradient's operands, `64 × 64`
+/// of `B` (16 KB in `f32`) and `64 × 35` of `A` (9 KB), fit in a 32 KB L1 together, so the
+/// `⌈35/6⌉ × 4` panel passes over a chunk read L1 instead of L2. Measured with
+/// `NEUS_AUG_BENCH_MLP_ONLY=1` on an x86-64-v3 build (Zen 4, one thread, idle, two rounds):
+/// `dW 64 x 35 over 3584 rows` 79.1–79.6 GFLOP/s at 256, 96.6–97.3 at 64 (88.6 at 32, one
+/// round); the SDF layer's whole backward 0.70 → 0.68–0.69 µs per sample
+/// (`results/speed/zen4-2026-11-26-panel-kc`). The sums are bit-identical for any chunk.
+pub const PANEL_KC: usize = 64;
+
 /// The kernel this build uses, chosen from the target features it is compiled for.
 pub const KERNEL: Kernel = if cfg!(all(target_arch = "x86_64", target_feature = "avx512f")) {
     Kernel::WideTiles
@@ -192,13 +201,13 @@ pub fn gemm_then_with<T: Real, F: FnMut(usize, &mut [T])>(
         (Kernel::WideTiles, 32) => blocks::<T, F, 32, 32, 8, 0>(m, kk, a, b, ldb, c, ldc, init, f),
         (Kernel::WideTiles, 16) => blocks::<T, F, 16, 16, 8, 0>(m, kk, a, b, ldb, c, ldc, init, f),
         (Kernel::PanelTiles, 64) => {
-            blocks::<T, F, 64, 16, 6, 256>(m, kk, a, b, ldb, c, ldc, init, f)
+            blocks::<T, F, 64, 16, 6, PANEL_KC>(m, kk, a, b, ldb, c, ldc, init, f)
         }
         (Kernel::PanelTiles, 32) => {
-            blocks::<T, F, 32, 16, 6, 256>(m, kk, a, b, ldb, c, ldc, init, f)
+            blocks::<T, F, 32, 16, 6, PANEL_KC>(m, kk, a, b, ldb, c, ldc, init, f)
         }
         (Kernel::PanelTiles, 16) => {
-            blocks::<T, F, 16, 16, 6, 256>(m, kk, a, b, ldb, c, ldc, init, f)
+            blocks::<T, F, 16, 16, 6, PANEL_KC>(m, kk, a, b, ldb, c, ldc, init, f)
         }
         _ => {
             if let Init::Bias(bias) = init {
@@ -268,9 +277,9 @@ pub fn gemm_reference<T: Real>(
 }
 
 /// All rows of `C`, with the sum over `k` cut into chunks of `KC` (0: one chunk) when it is
-/// longer: the weight gradients sum over thousands of rows, and a chunk of `A` and `B`
-/// (`KC × N` of `B`, 64 KB for `f32` at `KC` = 256, `N` = 64) stays in L2 while every row
-/// block sweeps it, instead of streaming all of `B` from L3 once per row block. `C` carries the
+/// longer: the weight gradients sum over thousands of rows, and a chunk of `A` and `B` stays in
+/// cache while every row block sweeps it (see [`PANEL_KC`]), instead of streaming all of `B`
+/// from L2 or L3 once per row block. `C` carries the
 /// partial sums between chunks; each output still adds its terms in the order `k = 0, 1, …`
 /// with the same roundings, so the result is bit-identical to one chunk. The epilogue runs on
 /// the last chunk only.
@@ -473,7 +482,7 @@ mod tests {
         (17, 64, 16),
         (23, 35, 64),
         (9, 40, 32),
-        // Longer than one chunk of the panel kernel's k loop (256), with a remainder.
+        // Longer than one chunk of the panel kernel's k loop (`PANEL_KC`), with a remainder.
         (35, 600, 64),
         (13, 515, 32),
     ];
@@ -600,6 +609,56 @@ mod tests {
             }
         }
         assert!(worst < 2.0f64.powi(-22), "f32 kernels vs f64: {worst:e}");
+    }
+
+    /// Cutting the sum over `k` into chunks changes no bit: every output adds its terms in the
+    /// same order with the same roundings, whatever the chunk (here against one chunk, in `f32`
+    /// where a reordered sum would show), on the weight gradient's transposed operand.
+    #[test]
+    fn k_chunks_are_bit_identical_to_one_sum() {
+        let mut rng = Pcg64Mcg::seed_from_u64(11);
+        for &(m, kk) in &[(35usize, 600usize), (13, 515), (6, 64), (7, 65)] {
+            let (a, b, c0, _) = operands::<f32>(&mut rng, m, kk, 64);
+            let sa = Strided::transposed(&a[..], m);
+            let (ldb, ldc) = (64 + 3, 64 + 2);
+            let run = |chunked: bool| {
+                let mut c = c0.clone();
+                let mut none = |_: usize, _: &mut [f32]| {};
+                if chunked {
+                    blocks::<f32, _, 64, 16, 6, PANEL_KC>(
+                        m,
+                        kk,
+                        sa,
+                        &b,
+                        ldb,
+                        &mut c,
+                        ldc,
+                        Init::Accumulate,
+                        &mut none,
+                    );
+                } else {
+                    blocks::<f32, _, 64, 16, 6, 0>(
+                        m,
+                        kk,
+                        sa,
+                        &b,
+                        ldb,
+                        &mut c,
+                        ldc,
+                        Init::Accumulate,
+                        &mut none,
+                    );
+                }
+                c
+            };
+            let (one, chunks) = (run(false), run(true));
+            assert!(
+                one.iter()
+                    .zip(&chunks)
+                    .all(|(x, y)| x.to_bits() == y.to_bits()),
+                "m {m}, k {kk}: chunked sums differ"
+            );
+        }
     }
 
     /// The kernel chosen at build time can run on the CPU running the tests (the build's target
