@@ -49,6 +49,10 @@
 //!    to remove start right at the seen edges, so any margin keeps their worst part (blob s0:
 //!    0.671 mm at 0 against 0.615 at 4 mm; relief 0.538 against 0.708,
 //!    `results/geometry/visible-2026-11-25`).
+//!    Two follow-ups ([`split_unseen`]): a component of the closed surface of which no face is
+//!    seen is removed from the closed surface as well (a floater behind the object, which rules
+//!    1–3 keep when it is large and outside every other component), and rule 2 runs again on
+//!    the seen surface, which the cut can leave with specks (`results/geometry/seed2-2026-11-26`).
 //!
 //! Faces that lose a vertex are removed; vertices no face uses are dropped and the rest renumbered
 //! in their original order, so the result is deterministic.
@@ -111,6 +115,14 @@ pub struct CleanReport {
     pub enclosed_components_removed: usize,
     /// Faces removed by [`cull_unseen`] (rule 4; `0` when it did not run).
     pub faces_unseen: usize,
+    /// Components of the closed surface of which no face is seen, removed from it too (rule 4's
+    /// first follow-up, [`split_unseen`]; `components_after` counts what is left), and their faces.
+    pub unseen_components_removed: usize,
+    pub faces_in_unseen_components: usize,
+    /// Specks of the seen surface below `min_area_share` of its largest component, removed from
+    /// the scored mesh (rule 4's second follow-up), and their faces.
+    pub cut_specks_removed: usize,
+    pub faces_in_cut_specks: usize,
     /// Components of the mesh [`cull_unseen`] left (equal to `components_after` when it did not
     /// run): cutting away the unseen side can split a closed surface into visible patches.
     pub components_seen: usize,
@@ -507,13 +519,70 @@ pub fn cull_unseen(
     min_views: usize,
     margin: f64,
 ) -> (TriMesh, usize) {
+    let cut = cull_unseen_parts(mesh, cameras, min_views, margin, 0.0);
+    (cut.seen, cut.faces_unseen)
+}
+
+/// What rule 4 and its two follow-ups leave of a closed cleaned mesh ([`cull_unseen_parts`]).
+#[derive(Clone, Debug)]
+pub struct UnseenCut {
+    /// The scored surface: the faces the cameras see, without the specks the cut leaves.
+    pub seen: TriMesh,
+    /// The closed surface without its components of which no face is seen.
+    pub closed: TriMesh,
+    /// Faces of the input that are not seen (rule 4's count; the two follow-ups remove more).
+    pub faces_unseen: usize,
+    /// Components of the closed surface of which no face is seen, and their faces.
+    pub unseen_components_removed: usize,
+    pub faces_in_unseen_components: usize,
+    /// Components of the seen surface below the area share (rule 2 on the cut), and their faces.
+    pub cut_specks_removed: usize,
+    pub faces_in_cut_specks: usize,
+}
+
+/// Rule 4 with its two follow-ups, from per-face `seen` flags of a closed cleaned mesh:
+/// - a component of the closed surface of which no face is seen goes from the closed surface
+///   too (a floater behind the object, that rules 1–3 keep because it is large and outside
+///   every other component: `relief` at seed 2, 2.9 % of the object's area, 38 mm behind it);
+/// - rule 2 runs again on the seen surface with the same `min_area_share`: the cut leaves specks
+///   where a few faces are seen among unseen ones (three of 0.2–0.5 mm² on that run).
+pub fn split_unseen(mesh: &TriMesh, seen: &[bool], min_area_share: f64) -> UnseenCut {
+    assert_eq!(seen.len(), mesh.faces.len(), "one flag per face");
+    let (labels, n) = face_components(mesh);
+    let mut any_seen = vec![false; n];
+    for (&l, &s) in labels.iter().zip(seen) {
+        any_seen[l as usize] |= s;
+    }
+    let keep_closed: Vec<bool> = labels.iter().map(|&l| any_seen[l as usize]).collect();
+    let closed = keep_faces(mesh, &keep_closed);
+    let cut = keep_faces(mesh, seen);
+    let (keep_cut, _, specks) = small_component_filter(&cut, min_area_share);
+    let seen_mesh = keep_faces(&cut, &keep_cut);
+    UnseenCut {
+        faces_unseen: mesh.faces.len() - cut.faces.len(),
+        unseen_components_removed: any_seen.iter().filter(|s| !**s).count(),
+        faces_in_unseen_components: mesh.faces.len() - closed.faces.len(),
+        cut_specks_removed: specks,
+        faces_in_cut_specks: cut.faces.len() - seen_mesh.faces.len(),
+        seen: seen_mesh,
+        closed,
+    }
+}
+
+/// [`split_unseen`] on the faces that at least `min_views` of `cameras` see, grown by `margin`
+/// (as [`cull_unseen`]). `min_views = 0`, or no cameras, returns the mesh unchanged twice.
+pub fn cull_unseen_parts(
+    mesh: &TriMesh,
+    cameras: &[&Camera],
+    min_views: usize,
+    margin: f64,
+    min_area_share: f64,
+) -> UnseenCut {
     if min_views == 0 || cameras.is_empty() {
-        return (mesh.clone(), 0);
+        return split_unseen(mesh, &vec![true; mesh.faces.len()], 0.0);
     }
     let keep = grow_by_distance(mesh, &visibility_filter(mesh, cameras, min_views), margin);
-    let m = keep_faces(mesh, &keep);
-    let removed = mesh.faces.len() - m.faces.len();
-    (m, removed)
+    split_unseen(mesh, &keep, min_area_share)
 }
 
 #[cfg(test)]
@@ -574,6 +643,66 @@ mod tests {
         assert_eq!(rep.faces_in_small_components, 1);
         assert_eq!(out.faces.len(), m.faces.len() - 1);
         assert_eq!(out.vertices.len(), m.vertices.len() - 3);
+    }
+
+    #[test]
+    fn unseen_components_and_the_cuts_specks_go() {
+        // Sphere A (x > 0) half seen, sphere B (x < 0) with one seen face, and a copy of both
+        // moved away, not seen at all.
+        let mut m = shape_mesh("two-spheres", 24);
+        let (nv, nf) = (m.vertices.len() as u32, m.faces.len());
+        let (va, fa) = (m.vertices.clone(), m.faces.clone());
+        m.vertices
+            .extend(va.iter().map(|v| [v[0], v[1] + 1.5, v[2]]));
+        m.faces.extend(fa.iter().map(|f| f.map(|i| i + nv)));
+        let cx = |f: &[u32; 3]| centroid(&m, f).x;
+        let in_c = |i: usize| i >= nf;
+        let mut one_b = false;
+        let seen: Vec<bool> = (0..m.faces.len())
+            .map(|i| {
+                let x = cx(&m.faces[i]);
+                if in_c(i) {
+                    false
+                } else if x > 0.43 {
+                    true
+                } else if x < 0.0 && !one_b {
+                    one_b = true;
+                    true
+                } else {
+                    false
+                }
+            })
+            .collect();
+        let n_seen_a = (0..nf).filter(|&i| cx(&m.faces[i]) > 0.43).count();
+        let cut = split_unseen(&m, &seen, 0.02);
+        assert_eq!(
+            (
+                cut.unseen_components_removed,
+                cut.faces_in_unseen_components
+            ),
+            (2, m.faces.len() - nf),
+            "the copy's two spheres, never seen, leave the closed surface"
+        );
+        assert_eq!(cut.closed.faces.len(), nf, "spheres A and B stay whole");
+        assert_eq!(face_components(&cut.closed).1, 2);
+        assert_eq!(
+            (cut.cut_specks_removed, cut.faces_in_cut_specks),
+            (1, 1),
+            "B's one seen face is a speck of the cut"
+        );
+        assert_eq!(cut.seen.faces.len(), n_seen_a);
+        assert_eq!(cut.faces_unseen, m.faces.len() - n_seen_a - 1);
+        // Share 0 keeps the speck; all seen keeps everything.
+        assert_eq!(split_unseen(&m, &seen, 0.0).seen.faces.len(), n_seen_a + 1);
+        let all = split_unseen(&m, &vec![true; m.faces.len()], 0.02);
+        assert_eq!(
+            (
+                all.seen.faces.len(),
+                all.closed.faces.len(),
+                all.faces_unseen
+            ),
+            (m.faces.len(), m.faces.len(), 0)
+        );
     }
 
     #[test]

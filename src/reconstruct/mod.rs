@@ -43,7 +43,7 @@ pub use preset::scale_run_length;
 use truth::{find_gt, GeometryVsTruth};
 
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
-use crate::mesh::clean::{clean_mesh, cull_unseen, CleanOptions};
+use crate::mesh::clean::{clean_mesh, cull_unseen_parts, CleanOptions};
 use crate::mesh::{extract_two_pass, to_world, McError, McOptions, TopologyReport, TwoPassOptions};
 use crate::render::model::{ModelError, NeusModel, RayBatch};
 use crate::scene::{GrayImage, LoadOptions, RgbImage, Scene, SceneError};
@@ -694,13 +694,26 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         (raw.clone(), None)
     };
     // Rule 4 (`mesh::clean`): the scored mesh is the part the training cameras see; the closed
-    // surface it was cut from stays beside it, and the genus is measured on that.
+    // surface it was cut from stays beside it, less its wholly unseen components, and the genus
+    // is measured on that.
     let (mut mesh, unseen) = match clean.as_mut() {
         Some(rep) => {
             let margin = cfg.mesh.clean_visible_margin_mm / scene.normalization.scale;
-            let (m, n) = cull_unseen(&closed, &cameras, cfg.mesh.clean_min_visible_views, margin);
-            rep.faces_unseen = n;
-            (m, n)
+            let cut = cull_unseen_parts(
+                &closed,
+                &cameras,
+                cfg.mesh.clean_min_visible_views,
+                margin,
+                cfg.mesh.clean_min_area_share,
+            );
+            rep.faces_unseen = cut.faces_unseen;
+            rep.unseen_components_removed = cut.unseen_components_removed;
+            rep.faces_in_unseen_components = cut.faces_in_unseen_components;
+            rep.cut_specks_removed = cut.cut_specks_removed;
+            rep.faces_in_cut_specks = cut.faces_in_cut_specks;
+            rep.components_after -= cut.unseen_components_removed;
+            closed = cut.closed;
+            (cut.seen, cut.faces_unseen)
         }
         None => (closed.clone(), 0),
     };
