@@ -616,42 +616,38 @@ mod tests {
     /// where a reordered sum would show), on the weight gradient's transposed operand.
     #[test]
     fn k_chunks_are_bit_identical_to_one_sum() {
+        /// `C + A·B` through the panel kernel with `k` chunks of `KC` (0: one chunk).
+        fn sum<const KC: usize>(
+            m: usize,
+            kk: usize,
+            a: Strided<f32>,
+            b: &[f32],
+            c0: &[f32],
+        ) -> Vec<f32> {
+            let mut c = c0.to_vec();
+            let mut none = |_: usize, _: &mut [f32]| {};
+            let (ldb, ldc) = (64 + 3, 64 + 2);
+            blocks::<f32, _, 64, 16, 6, KC>(
+                m,
+                kk,
+                a,
+                b,
+                ldb,
+                &mut c,
+                ldc,
+                Init::Accumulate,
+                &mut none,
+            );
+            c
+        }
         let mut rng = Pcg64Mcg::seed_from_u64(11);
         for &(m, kk) in &[(35usize, 600usize), (13, 515), (6, 64), (7, 65)] {
             let (a, b, c0, _) = operands::<f32>(&mut rng, m, kk, 64);
             let sa = Strided::transposed(&a[..], m);
-            let (ldb, ldc) = (64 + 3, 64 + 2);
-            let run = |chunked: bool| {
-                let mut c = c0.clone();
-                let mut none = |_: usize, _: &mut [f32]| {};
-                if chunked {
-                    blocks::<f32, _, 64, 16, 6, PANEL_KC>(
-                        m,
-                        kk,
-                        sa,
-                        &b,
-                        ldb,
-                        &mut c,
-                        ldc,
-                        Init::Accumulate,
-                        &mut none,
-                    );
-                } else {
-                    blocks::<f32, _, 64, 16, 6, 0>(
-                        m,
-                        kk,
-                        sa,
-                        &b,
-                        ldb,
-                        &mut c,
-                        ldc,
-                        Init::Accumulate,
-                        &mut none,
-                    );
-                }
-                c
-            };
-            let (one, chunks) = (run(false), run(true));
+            let (one, chunks) = (
+                sum::<0>(m, kk, sa, &b, &c0),
+                sum::<PANEL_KC>(m, kk, sa, &b, &c0),
+            );
             assert!(
                 one.iter()
                     .zip(&chunks)
