@@ -215,6 +215,7 @@ fn slabs_and_batches_give_the_reference_bytes() {
                     iso: 0.0,
                     batch_points: batch,
                     slab_points: slab_planes * plane,
+                    close_radius: 0,
                 };
                 let fast = marching_cubes(&sdf, grid, &opts).unwrap();
                 assert_eq!(
@@ -301,6 +302,7 @@ fn output_does_not_depend_on_the_thread_count() {
         iso: 0.0,
         batch_points: 3000,
         slab_points: 5 * 97 * 83,
+        close_radius: 0,
     };
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()

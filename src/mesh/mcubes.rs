@@ -15,9 +15,11 @@
 //! a fixed size, and the results are concatenated in row order, so the output is the same bytes
 //! for any thread count. Only two planes of bits and one slab of SDF values are held at a time.
 
+use super::closing;
 use super::tables::{edge_axis, edge_origin, TABLES};
 use super::{inside, GridSpec, McError, McOptions, TriMesh};
 use rayon::prelude::*;
+use std::collections::VecDeque;
 
 /// Rows per parallel task (fixed, so that results do not depend on the thread count).
 const ROWS_PER_TASK: usize = 8;
@@ -39,6 +41,9 @@ where
 
 /// Marching cubes on the SDF `sdf` sampled over `grid` (normalised space).
 ///
+/// With `opts.close_radius > 0` the values are closed ([`super::closing`]) before extraction,
+/// still streamed: about `2·(2r + 1) + 2` planes beyond the slab are held.
+///
 /// `sdf` receives batches of points (`[n][3]`, normalised space) and returns one value per point,
 /// negative inside. The grid is evaluated slab by slab (about `opts.slab_points` values at a time)
 /// with the batches of a slab running in parallel; extraction then sweeps the slab plane by plane.
@@ -53,6 +58,21 @@ where
     let coords = Coords::new(grid);
     let plane = grid.res[0] * grid.res[1];
     let slab_planes = (opts.slab_points / plane).max(1);
+    if opts.close_radius > 0 {
+        let mut source = ClosedSlabs::new(
+            SdfSlabs {
+                sdf,
+                coords: &coords,
+                batch: opts.batch_points.max(1),
+                slab_planes,
+                base: 0,
+                n_planes: 0,
+                buf: Vec::new(),
+            },
+            opts.close_radius,
+        );
+        return sweep(&coords, opts.iso, &mut source);
+    }
     let mut source = SdfSlabs {
         sdf,
         coords: &coords,
@@ -208,6 +228,125 @@ where
         let n = self.coords.n[0] * self.coords.n[1];
         let o = (k - self.base) * n;
         &self.buf[o..o + n]
+    }
+}
+
+/// The raw planes of an [`SdfSlabs`] closed on the fly ([`super::closing`]): each raw plane is
+/// checked for NaN, filtered in-plane (minimum), and the z-minimum over `2r + 1` of those gives a
+/// dilated plane; the same with maxima gives the closed plane. Planes leave the queues as soon as
+/// no later plane needs them.
+struct ClosedSlabs<'a, F> {
+    raw: SdfSlabs<'a, F>,
+    r: usize,
+    /// In-plane minima of raw planes, by plane index (oldest first).
+    dil: VecDeque<(usize, Vec<f32>)>,
+    /// Dilated planes after their in-plane maxima, by plane index.
+    ero: VecDeque<(usize, Vec<f32>)>,
+    /// The last closed planes (at most two), by plane index.
+    out: VecDeque<(usize, Vec<f32>)>,
+    line: Vec<f32>,
+}
+
+impl<'a, F> ClosedSlabs<'a, F>
+where
+    F: Fn(&[[f32; 3]]) -> Vec<f32> + Sync,
+{
+    fn new(raw: SdfSlabs<'a, F>, r: usize) -> Self {
+        Self {
+            raw,
+            r,
+            dil: VecDeque::new(),
+            ero: VecDeque::new(),
+            out: VecDeque::new(),
+            line: Vec::new(),
+        }
+    }
+
+    fn dims(&self) -> (usize, usize, usize) {
+        let [nx, ny, nz] = self.raw.coords.n;
+        (nx, ny, nz)
+    }
+
+    /// In-plane minima of raw planes up to `k`.
+    fn fill_dil(&mut self, k: usize) -> Result<(), McError> {
+        let (nx, ny, _) = self.dims();
+        let mut next = self.dil.back().map_or(0, |(q, _)| q + 1);
+        while next <= k {
+            self.raw.prepare(next)?;
+            let mut p = self.raw.plane(next).to_vec();
+            if let Some(at) = p.iter().position(|v| v.is_nan()) {
+                return Err(nan_error(self.raw.coords, next, (at / nx, at % nx)));
+            }
+            closing::filter_plane(&mut p, nx, ny, self.r, false, &mut self.line);
+            self.dil.push_back((next, p));
+            next += 1;
+        }
+        Ok(())
+    }
+
+    /// Dilated, in-plane-maximised planes up to `k`.
+    fn fill_ero(&mut self, k: usize) -> Result<(), McError> {
+        let (nx, ny, nz) = self.dims();
+        let mut next = self.ero.back().map_or(0, |(q, _)| q + 1);
+        while next <= k {
+            let (lo, hi) = (next.saturating_sub(self.r), (next + self.r).min(nz - 1));
+            self.fill_dil(hi)?;
+            let mut p = vec![0.0; nx * ny];
+            closing::combine_planes(&mut p, window(&self.dil, lo, hi), false);
+            closing::filter_plane(&mut p, nx, ny, self.r, true, &mut self.line);
+            self.ero.push_back((next, p));
+            while self.dil.front().is_some_and(|(q, _)| q + self.r <= next) {
+                self.dil.pop_front();
+            }
+            next += 1;
+        }
+        Ok(())
+    }
+}
+
+/// The planes of `queue` with indices `lo..=hi` (all present).
+fn window(
+    queue: &VecDeque<(usize, Vec<f32>)>,
+    lo: usize,
+    hi: usize,
+) -> impl Iterator<Item = &[f32]> {
+    queue
+        .iter()
+        .filter(move |(q, _)| (lo..=hi).contains(q))
+        .map(|(_, p)| p.as_slice())
+}
+
+impl<F> PlaneSource for ClosedSlabs<'_, F>
+where
+    F: Fn(&[[f32; 3]]) -> Vec<f32> + Sync,
+{
+    fn prepare(&mut self, k: usize) -> Result<(), McError> {
+        let (nx, ny, nz) = self.dims();
+        let mut next = self.out.back().map_or(0, |(q, _)| q + 1);
+        while next <= k {
+            let (lo, hi) = (next.saturating_sub(self.r), (next + self.r).min(nz - 1));
+            self.fill_ero(hi)?;
+            let mut p = vec![0.0; nx * ny];
+            closing::combine_planes(&mut p, window(&self.ero, lo, hi), true);
+            while self.ero.front().is_some_and(|(q, _)| q + self.r <= next) {
+                self.ero.pop_front();
+            }
+            self.out.push_back((next, p));
+            if self.out.len() > 2 {
+                self.out.pop_front();
+            }
+            next += 1;
+        }
+        Ok(())
+    }
+
+    fn plane(&self, k: usize) -> &[f32] {
+        let (_, p) = self
+            .out
+            .iter()
+            .find(|(q, _)| *q == k)
+            .expect("plane prepared");
+        p
     }
 }
 

@@ -22,7 +22,9 @@
 //! [`marching_cubes_values`] (a grid already in memory), [`extract::extract_two_pass`] (coarse box,
 //! then the padded bounds of the coarse mesh), [`topology::TopologyReport`] (boundary and
 //! non-manifold edges, Euler characteristic), [`reference::marching_cubes_reference`] (the slow,
-//! obviously correct path the fast one is tested against) and [`sdf`] (analytic test shapes).
+//! obviously correct path the fast one is tested against), [`closing`] (the optional grey-scale
+//! closing of the grid values before extraction, `McOptions::close_radius`) and [`sdf`]
+//! (analytic test shapes).
 //!
 //! ```
 //! use neus_aug::mesh::{marching_cubes, sdf::Shape, GridSpec, McOptions, TopologyReport};
@@ -37,6 +39,7 @@
 //! ```
 
 pub mod clean;
+pub mod closing;
 pub mod extract;
 mod mcubes;
 pub mod reference;
@@ -143,6 +146,10 @@ pub struct McOptions {
     /// slabs of whole z-planes of about this many points (at least one plane), plus the plane
     /// carried over from the previous slab.
     pub slab_points: usize,
+    /// Half-width, in grid points, of the cube of the grey-scale closing applied to the values
+    /// before extraction ([`closing`]): it fills tunnels and pinholes narrower than about
+    /// `2·close_radius` cells. 0 (the default) extracts the raw level set.
+    pub close_radius: usize,
 }
 
 impl Default for McOptions {
@@ -151,6 +158,7 @@ impl Default for McOptions {
             iso: 0.0,
             batch_points: 1 << 16,
             slab_points: 1 << 22,
+            close_radius: 0,
         }
     }
 }

@@ -669,7 +669,10 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             coarse_res: cfg.mesh.coarse_res,
             fine_res: cfg.mesh.fine_res,
             pad_fraction: cfg.mesh.pad_fraction,
-            mc: McOptions::default(),
+            mc: McOptions {
+                close_radius: cfg.mesh.close_radius,
+                ..McOptions::default()
+            },
         },
     )?;
     let raw = two.mesh;
