@@ -348,7 +348,13 @@ fn visual_hull_init_without_masks_or_with_bad_values_is_named() {
 #[test]
 fn sphere_or_hull_init_chooses_by_the_cover_and_reports_it() {
     let tmp = tempfile::tempdir().unwrap();
-    let cfg = write_config(tmp.path(), "[model.field.sdf]\nsphere_init_radius = 0.95\n");
+    // The map off: at 24 steps of the tiny network, the `fast` preset's error map leaves the
+    // no-mask run's surface outside the observed voxels (no Chamfer); at full size it trains
+    // (results/geometry/closing-2026-11-26). This test is about the start, not the rays.
+    let cfg = write_config(
+        tmp.path(),
+        "[model.field.sdf]\nsphere_init_radius = 0.95\n[train.error_map]\nshare = 0.0\n",
+    );
     let kind = "train.init.kind=\"sphere_or_hull\"";
     let run = |name: &str, extra: &[&str]| {
         let out = tmp.path().join(name);
@@ -522,7 +528,8 @@ fn error_map_sampling_is_deterministic_resumable_and_reported() {
     );
     let plain_dir = tmp.path().join("plain");
     std::fs::create_dir(&plain_dir).unwrap();
-    let plain = write_config(&plain_dir, "");
+    // The `fast` preset has the map on: the uniform peer turns it off.
+    let plain = write_config(&plain_dir, "[train.error_map]\nshare = 0.0\n");
     let (a, b, u) = (
         tmp.path().join("a"),
         tmp.path().join("b"),

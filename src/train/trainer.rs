@@ -36,7 +36,8 @@ pub struct TrainConfig {
     /// The unseen-space prior (`[train.unseen]`; off by default, see [`super::unseen`]).
     #[serde(skip_serializing_if = "UnseenConfig::is_default")]
     pub unseen: UnseenConfig,
-    /// Error-map ray sampling (`[train.error_map]`; off by default, see [`super::error_map`]).
+    /// Error-map ray sampling (`[train.error_map]`; off by default, half the rays in the `fast`
+    /// preset; see [`super::error_map`]).
     #[serde(skip_serializing_if = "ErrorMapConfig::is_default")]
     pub error_map: ErrorMapConfig,
 }
