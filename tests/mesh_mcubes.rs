@@ -8,6 +8,7 @@ use isosurface::math::Vec3;
 use isosurface::sampler::Sampler;
 use isosurface::source::ScalarSource;
 use isosurface::MarchingCubes;
+use neus_aug::mesh::closing::close_values;
 use neus_aug::mesh::reference::marching_cubes_reference;
 use neus_aug::mesh::sdf::Shape;
 use neus_aug::mesh::{
@@ -181,7 +182,9 @@ fn random_offset_spheres_match_the_oracle_and_the_reference() {
 }
 
 /// Streaming the SDF in slabs of 1, 2 or 5 planes and odd batch sizes gives exactly the bytes
-/// of the reference on the whole grid, with the surface crossing every slab boundary.
+/// of the reference on the whole grid, with the surface crossing every slab boundary; with the
+/// closing (`close_radius` 1–3, windows longer than a slab and than the grid's 2 planes), the
+/// bytes of the reference on the whole grid closed in memory.
 #[test]
 fn slabs_and_batches_give_the_reference_bytes() {
     let grids = [
@@ -208,22 +211,27 @@ fn slabs_and_batches_give_the_reference_bytes() {
         let sdf = move |pts: &[[f32; 3]]| shape.eval_batch(pts);
         for grid in &grids {
             let values = sample_grid(&sdf, grid, &McOptions::default()).unwrap();
-            let slow = marching_cubes_reference(&values, grid, 0.0).unwrap();
             let plane = grid.res[0] * grid.res[1];
-            for (slab_planes, batch) in [(1, 7), (2, 1000), (5, 64), (1000, 1 << 16)] {
-                let opts = McOptions {
-                    iso: 0.0,
-                    batch_points: batch,
-                    slab_points: slab_planes * plane,
-                    close_radius: 0,
-                };
-                let fast = marching_cubes(&sdf, grid, &opts).unwrap();
-                assert_eq!(
-                    fast, slow,
-                    "{name} on {grid:?}, slabs of {slab_planes} planes"
-                );
+            // The streamed closing (`close_radius`) against the whole grid closed in memory.
+            for close_radius in 0..=3 {
+                let mut closed = values.clone();
+                close_values(&mut closed, grid.res, close_radius);
+                let slow = marching_cubes_reference(&closed, grid, 0.0).unwrap();
+                for (slab_planes, batch) in [(1, 7), (2, 1000), (5, 64), (1000, 1 << 16)] {
+                    let opts = McOptions {
+                        iso: 0.0,
+                        batch_points: batch,
+                        slab_points: slab_planes * plane,
+                        close_radius,
+                    };
+                    let fast = marching_cubes(&sdf, grid, &opts).unwrap();
+                    assert_eq!(
+                        fast, slow,
+                        "{name} on {grid:?}, slabs of {slab_planes} planes, closing {close_radius}"
+                    );
+                }
+                assert_eq!(marching_cubes_values(&closed, grid, 0.0).unwrap(), slow);
             }
-            assert_eq!(marching_cubes_values(&values, grid, 0.0).unwrap(), slow);
         }
     }
 }
@@ -449,6 +457,24 @@ fn nan_is_an_error_naming_the_first_grid_point() {
             })
             .collect()
     };
+    // The closing's minimum and maximum would drop a NaN: it is reported before them.
+    for close_radius in 1..=2 {
+        let opts = McOptions {
+            close_radius,
+            ..McOptions::default()
+        };
+        let err = marching_cubes(&sdf, &grid, &opts).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                McError::NanSdf {
+                    index: [7, 0, 4],
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
     let err = marching_cubes(&sdf, &grid, &Default::default()).unwrap_err();
     // First NaN in [k][j][i] order: k = 4 (z = 1/3), j = 0 (y = −1), i = 7 (x = 0.75).
     let McError::NanSdf { index, position } = err.clone() else {

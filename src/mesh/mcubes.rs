@@ -58,21 +58,6 @@ where
     let coords = Coords::new(grid);
     let plane = grid.res[0] * grid.res[1];
     let slab_planes = (opts.slab_points / plane).max(1);
-    if opts.close_radius > 0 {
-        let mut source = ClosedSlabs::new(
-            SdfSlabs {
-                sdf,
-                coords: &coords,
-                batch: opts.batch_points.max(1),
-                slab_planes,
-                base: 0,
-                n_planes: 0,
-                buf: Vec::new(),
-            },
-            opts.close_radius,
-        );
-        return sweep(&coords, opts.iso, &mut source);
-    }
     let mut source = SdfSlabs {
         sdf,
         coords: &coords,
@@ -82,6 +67,10 @@ where
         n_planes: 0,
         buf: Vec::new(),
     };
+    if opts.close_radius > 0 {
+        let mut closed = ClosedSlabs::new(source, opts.close_radius);
+        return sweep(&coords, opts.iso, &mut closed);
+    }
     sweep(&coords, opts.iso, &mut source)
 }
 
@@ -289,31 +278,38 @@ where
         let (nx, ny, nz) = self.dims();
         let mut next = self.ero.back().map_or(0, |(q, _)| q + 1);
         while next <= k {
-            let (lo, hi) = (next.saturating_sub(self.r), (next + self.r).min(nz - 1));
-            self.fill_dil(hi)?;
-            let mut p = vec![0.0; nx * ny];
-            closing::combine_planes(&mut p, window(&self.dil, lo, hi), false);
+            self.fill_dil((next + self.r).min(nz - 1))?;
+            let mut p = z_combine(&mut self.dil, next, self.r, nz, false);
             closing::filter_plane(&mut p, nx, ny, self.r, true, &mut self.line);
             self.ero.push_back((next, p));
-            while self.dil.front().is_some_and(|(q, _)| q + self.r <= next) {
-                self.dil.pop_front();
-            }
             next += 1;
         }
         Ok(())
     }
 }
 
-/// The planes of `queue` with indices `lo..=hi` (all present).
-fn window(
-    queue: &VecDeque<(usize, Vec<f32>)>,
-    lo: usize,
-    hi: usize,
-) -> impl Iterator<Item = &[f32]> {
-    queue
+/// The element-wise minimum (`max = false`) or maximum of the planes `next − r ..= next + r`
+/// (clipped to `0..nz`) of `queue`, which must hold them; then the planes that no later index
+/// needs leave the queue.
+fn z_combine(
+    queue: &mut VecDeque<(usize, Vec<f32>)>,
+    next: usize,
+    r: usize,
+    nz: usize,
+    max: bool,
+) -> Vec<f32> {
+    let (lo, hi) = (next.saturating_sub(r), (next + r).min(nz - 1));
+    let mut window = queue
         .iter()
-        .filter(move |(q, _)| (lo..=hi).contains(q))
+        .filter(|(q, _)| (lo..=hi).contains(q))
         .map(|(_, p)| p.as_slice())
+        .peekable();
+    let mut out = vec![0.0; window.peek().map_or(0, |p| p.len())];
+    closing::combine_planes(&mut out, window, max);
+    while queue.front().is_some_and(|(q, _)| q + r <= next) {
+        queue.pop_front();
+    }
+    out
 }
 
 impl<F> PlaneSource for ClosedSlabs<'_, F>
@@ -321,16 +317,11 @@ where
     F: Fn(&[[f32; 3]]) -> Vec<f32> + Sync,
 {
     fn prepare(&mut self, k: usize) -> Result<(), McError> {
-        let (nx, ny, nz) = self.dims();
+        let (_, _, nz) = self.dims();
         let mut next = self.out.back().map_or(0, |(q, _)| q + 1);
         while next <= k {
-            let (lo, hi) = (next.saturating_sub(self.r), (next + self.r).min(nz - 1));
-            self.fill_ero(hi)?;
-            let mut p = vec![0.0; nx * ny];
-            closing::combine_planes(&mut p, window(&self.ero, lo, hi), true);
-            while self.ero.front().is_some_and(|(q, _)| q + self.r <= next) {
-                self.ero.pop_front();
-            }
+            self.fill_ero((next + self.r).min(nz - 1))?;
+            let p = z_combine(&mut self.ero, next, self.r, nz, true);
             self.out.push_back((next, p));
             if self.out.len() > 2 {
                 self.out.pop_front();
