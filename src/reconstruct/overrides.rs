@@ -297,6 +297,17 @@ mod tests {
                 .to_string();
             assert!(e.contains("mesh.clean_visible_margin_mm"), "{e}");
         }
+        for (bad, why) in [("9", "0..=8"), ("-1", "-1")] {
+            let e = resolve(
+                None,
+                None,
+                &[parse_set(&format!("mesh.close_radius={bad}")).unwrap()],
+            )
+            .unwrap_err()
+            .to_string();
+            assert!(e.contains("mesh.close_radius"), "{e}");
+            assert!(e.contains(why), "{e}");
+        }
         let dir = tempfile::tempdir().unwrap();
         let f = dir.path().join("bad.toml");
         std::fs::write(&f, "[train\niterations = 1").unwrap();
