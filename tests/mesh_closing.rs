@@ -52,16 +52,13 @@ fn pinholes_close_and_holes_stay() {
     let raw = extract(&sdf, &grid, 0);
     let closed = extract(&sdf, &grid, 1);
     assert_eq!(TopologyReport::of(&closed).genus, 1);
-    let worst = closed
-        .vertices
-        .iter()
-        .map(|v| torus.eval(*v).abs())
-        .fold(0.0f32, f32::max);
-    let raw_worst = raw
-        .vertices
-        .iter()
-        .map(|v| torus.eval(*v).abs())
-        .fold(0.0f32, f32::max);
+    let farthest = |vertices: &[_]| {
+        vertices
+            .iter()
+            .map(|v| torus.eval(*v).abs())
+            .fold(0.0f32, f32::max)
+    };
+    let (worst, raw_worst) = (farthest(&closed.vertices), farthest(&raw.vertices));
     assert!(
         worst < raw_worst + 0.25 * cell,
         "closed vertices {worst} from the surface, raw {raw_worst}"
