@@ -32,7 +32,9 @@
 //! `NEUS_AUG_BENCH_QUICK=1` runs only the FMA peak and the default network's iteration;
 //! `NEUS_AUG_BENCH_MLP_ONLY=1` stops after the MLP products and the SDF layer's parts (0–2);
 //! `NEUS_AUG_CHUNK` overrides `chunk_samples`, `NEUS_AUG_BENCH_FD_EVERY` the main measurement's
-//! `render.fd_central_every`. Profiling aids (callgrind, no AVX-512 there: build
+//! `render.fd_central_every`, `NEUS_AUG_BENCH_FD_SPAN` its and the one-sided pairs'
+//! `render.fd_one_sided_span` (taps two cells out at 2); both also apply to
+//! `NEUS_AUG_BENCH_STEP_ONLY`. Profiling aids (callgrind, no AVX-512 there: build
 //! with `RUSTFLAGS="-C target-cpu=x86-64-v3"`): `NEUS_AUG_BENCH_HASH_ONLY=<log2 T>` runs only the
 //! hash-grid paths, `NEUS_AUG_BENCH_STEP_ONLY=1` two small training steps.
 
@@ -939,6 +941,27 @@ fn perturbed(model: &NeusModel) -> Vec<f32> {
     params
 }
 
+/// `render.fd_one_sided_span` from `NEUS_AUG_BENCH_FD_SPAN` (default 1).
+fn fd_span() -> f32 {
+    std::env::var("NEUS_AUG_BENCH_FD_SPAN")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1.0)
+}
+
+/// The main measurement's (and `NEUS_AUG_BENCH_STEP_ONLY`'s) tap layout:
+/// `render.fd_central_every` from `NEUS_AUG_BENCH_FD_EVERY` (default: the network's) and the span
+/// from [`fd_span`].
+fn fd_layout(cfg: &mut ModelConfig) {
+    if let Some(k) = std::env::var("NEUS_AUG_BENCH_FD_EVERY")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        cfg.render.fd_central_every = k;
+    }
+    cfg.render.fd_one_sided_span = fd_span();
+}
+
 /// One-sided finite differences (`render.fd_central_every = 4`, opt-in; issue 14) against
 /// central ones, on the default network: without the curvature loss (the presets' steps before
 /// their curvature ramp: every sample one-sided) and with it (the recipe's 5e-4: every fourth
@@ -951,6 +974,7 @@ fn fd_sides(peak: f64, secs: f64) {
             let mut cfg = ModelConfig::default();
             cfg.loss.curvature = Scheduled::Constant(curvature);
             cfg.render.fd_central_every = every;
+            cfg.render.fd_one_sided_span = fd_span();
             let (m, mut p, o, _) = setup(cfg);
             let st = train_iterations(&m, &mut p, &o, secs);
             let label = format!("default network, {phase}, render.fd_central_every = {every}");
@@ -982,7 +1006,9 @@ fn main() {
     if std::env::var("NEUS_AUG_BENCH_STEP_ONLY").is_ok() {
         // Profiling aid (callgrind): two training steps of the default network on 64 rays
         // without an occupancy grid, then one AdamW step.
-        let model = NeusModel::new(ModelConfig::default()).unwrap();
+        let mut cfg = ModelConfig::default();
+        fd_layout(&mut cfg);
+        let model = NeusModel::new(cfg).unwrap();
         let mut params = model.init_params(0);
         let rays = rays_towards_sphere(64, 3);
         let batch = RayBatch {
@@ -1033,12 +1059,7 @@ fn main() {
     {
         cfg.render.chunk_samples = c;
     }
-    if let Some(k) = std::env::var("NEUS_AUG_BENCH_FD_EVERY")
-        .ok()
-        .and_then(|s| s.parse().ok())
-    {
-        cfg.render.fd_central_every = k;
-    }
+    fd_layout(&mut cfg);
     let (model, mut params, occ, (w, cpu)) = setup(cfg);
     println!(
         "\n== SDF queries: occupancy update at warm-up (all {} cells, {:.1}% occupied after): {} points ==",

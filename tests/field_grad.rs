@@ -67,6 +67,17 @@ fn forward_difference_gradients_match_central_differences() {
             out.eikonal,
             central.eikonal
         );
+        // The one-sided span (taps at x ± 2ε·e_a, divided by 2ε): its backward too, and it is
+        // in use (the eikonal term moves again).
+        let mut wide = cfg.clone();
+        wide.render.fd_one_sided_span = 2.0;
+        let out2 = check_full_gradient(wide);
+        assert!(
+            (out2.eikonal - out.eikonal).abs() > 1e-9 * out.eikonal.abs(),
+            "the span changed nothing: {} vs {}",
+            out2.eikonal,
+            out.eikonal
+        );
         assert_eq!(out.n_samples, central.n_samples);
         if curvature > 0.0 {
             // A third of the samples, weighted 3: the same mean |Δf| up to sampling.
@@ -111,6 +122,16 @@ fn renders_ignore_the_training_tap_layout() {
     let mut bad = tiny_config();
     bad.render.fd_central_every = 0;
     assert!(NeusModel::new(bad).is_err());
+    for span in [0.0, 0.1, 2.5, f32::NAN] {
+        let mut bad = tiny_config();
+        bad.render.fd_one_sided_span = span;
+        let e = NeusModel::new(bad).err().map(|e| e.to_string());
+        assert!(
+            e.as_deref()
+                .is_some_and(|e| e.contains("fd_one_sided_span")),
+            "span {span}: {e:?}"
+        );
+    }
 }
 
 /// The learned background (issue 16): its two networks join the check, through the two-layer

@@ -407,6 +407,10 @@ fn weak_counts_and_resolutions_name_their_own_key() {
             "model.render.fd_central_every=65",
             &["model.render.fd_central_every", "65"],
         ),
+        (
+            "model.render.fd_one_sided_span=5.0",
+            &["model.render.fd_one_sided_span", "= 5", "[0.25, 2]"],
+        ),
         ("mesh.fine_res=100000", &["mesh.fine_res", "100000", "2048"]),
         (
             "model.render.background=[2, 2, 2]",

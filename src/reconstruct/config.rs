@@ -444,6 +444,13 @@ impl RunConfig {
                 "must be in 1..=64 (1: central differences on every sample)",
             ));
         }
+        if !(r.fd_one_sided_span.is_finite() && (0.25..=2.0).contains(&r.fd_one_sided_span)) {
+            return Err(invalid(
+                "model.render.fd_one_sided_span",
+                r.fd_one_sided_span,
+                "must be in [0.25, 2] (units of the finite-difference step; the fast stencil takes taps up to two cells out)",
+            ));
+        }
         if !(r.radius.is_finite() && r.radius > 0.0) {
             return Err(invalid(
                 "model.render.radius",

@@ -67,6 +67,18 @@ pub struct RenderConfig {
     /// differences. Left out of a config's text at 1, so earlier configs and hashes hold.
     #[serde(skip_serializing_if = "is_one")]
     pub fd_central_every: u32,
+    /// Span of a one-sided difference in units of `ε` (default 1): its taps sit at
+    /// `x ± span·ε·e_a` and it divides by `span·ε`. At 2 a one-sided difference averages the
+    /// gradient over the same `2ε` as a central one (the smoothing of Neuralangelo's numerical
+    /// gradient, `projects/neuralangelo/utils/modules.py`), at twice its first-order error
+    /// (which the alternation of sides cancels on average). Only read when
+    /// `fd_central_every > 1`. This project's choice. Left out of a config's text at 1.
+    #[serde(skip_serializing_if = "is_one_f32")]
+    pub fd_one_sided_span: f32,
+}
+
+fn is_one_f32(v: &f32) -> bool {
+    *v == 1.0
 }
 
 fn is_one(v: &u32) -> bool {
@@ -89,6 +101,7 @@ impl Default for RenderConfig {
             shards: 0,
             view_dependence: Scheduled::Constant(1.0),
             fd_central_every: 1,
+            fd_one_sided_span: 1.0,
         }
     }
 }
@@ -272,12 +285,16 @@ mod tests {
         assert!(err.to_string().contains("radiuss"), "{err}");
         // The background section: absent from a default config's text, round-trips when set.
         assert!(!text.contains("background]"), "{text}");
-        // `fd_central_every` likewise (so configs and hashes from before it hold).
+        // `fd_central_every` and `fd_one_sided_span` likewise (so configs and hashes from
+        // before them hold).
         assert!(!text.contains("fd_central_every"), "{text}");
+        assert!(!text.contains("fd_one_sided_span"), "{text}");
         let mut k = c.clone();
         k.render.fd_central_every = 4;
+        k.render.fd_one_sided_span = 2.0;
         let text = toml::to_string(&k).unwrap();
         assert!(text.contains("fd_central_every = 4"), "{text}");
+        assert!(text.contains("fd_one_sided_span = 2"), "{text}");
         assert_eq!(toml::from_str::<ModelConfig>(&text).unwrap(), k);
         let bg: ModelConfig =
             toml::from_str("[background]\nkind = \"nerfpp\"\nn_outside = 8\n").unwrap();

@@ -192,6 +192,13 @@ impl NeusModel {
                 why: "must be in 1..=64",
             });
         }
+        if !(r.fd_one_sided_span.is_finite() && (0.25..=2.0).contains(&r.fd_one_sided_span)) {
+            return Err(ModelError::Invalid {
+                key: "render.fd_one_sided_span",
+                value: r.fd_one_sided_span.to_string(),
+                why: "must be in [0.25, 2] (the level-parallel stencil takes taps up to two cells out)",
+            });
+        }
         if r.occupancy.resolution == 0 || r.occupancy.resolution > 1024 {
             return Err(ModelError::Invalid {
                 key: "render.occupancy.resolution",

@@ -80,7 +80,9 @@ struct Chunk<'a, T> {
     active: usize,
     /// Finite-difference step (normalised units), `1/ε` and `1/(2ε)`.
     eps: T,
-    inv_eps: T,
+    /// One-sided step `span·ε` (`RenderConfig::fd_one_sided_span`) and its inverse.
+    eps1: T,
+    inv_eps1: T,
     inv_2eps: T,
     /// Which samples take central differences: 1 = all, 0 = none (one-sided differences), `k` =
     /// those whose index in the batch is a multiple of `k` ([`NeusModel::central_every`]).
@@ -95,9 +97,9 @@ impl<T: Real> Chunk<'_, T> {
     #[inline(always)]
     fn one_sided_scale(&self, side: Sides) -> T {
         if side == Sides::Minus {
-            -self.inv_eps
+            -self.inv_eps1
         } else {
-            self.inv_eps
+            self.inv_eps1
         }
     }
 }
@@ -127,6 +129,7 @@ impl NeusModel {
         let cfgf = &self.config.field;
         let active = ctx.sched.active_levels;
         let eps = T::from_f64(self.fd_eps(active));
+        let eps1 = eps * T::from_f32(self.config.render.fd_one_sided_span);
         Chunk {
             r0,
             r1,
@@ -140,7 +143,8 @@ impl NeusModel {
             radius: T::from_f32(self.config.render.radius),
             active,
             eps,
-            inv_eps: T::ONE / eps,
+            eps1,
+            inv_eps1: T::ONE / eps1,
             inv_2eps: T::ONE / (eps + eps),
             central_every,
             inv_s: T::from_f64(ctx.inv_s),
@@ -323,11 +327,12 @@ impl NeusModel {
                 // Taps x ± ε·e_a, clamped to the box; an unused side's taps are the centre (they
                 // stay in the centre's cell, and the stencil skips them).
                 let used = sides.slots();
+                let h = if sides == Sides::Both { eps } else { c.eps1 };
                 let taps = [0, 1, 2].map(|a| {
                     let tap = |p: usize, v: T| if used.contains(&p) { v } else { x[a] };
                     [
-                        tap(0, (x[a] + eps).maxv(-radius).minv(radius)),
-                        tap(1, (x[a] - eps).maxv(-radius).minv(radius)),
+                        tap(0, (x[a] + h).maxv(-radius).minv(radius)),
+                        tap(1, (x[a] - h).maxv(-radius).minv(radius)),
                     ]
                 });
                 m += if sides == Sides::Both { 6 } else { 3 };

@@ -9,7 +9,7 @@
 
 use super::{
     block_backward, block_forward, block_prefetch, corner, faces, gather, prefetch, LaneBlock,
-    LaneConsts, Plan, L, LANES,
+    LaneConsts, Plan, PlanTwo, L, LANES,
 };
 use crate::field::hashgrid::{fd_point, HashGrid, Sides};
 use crate::field::Real;
@@ -26,8 +26,11 @@ struct Ring<T> {
     nb: usize,
     /// `[RING][nb]` plans, slot-major.
     plans: Vec<Plan<T>>,
-    /// Per slot: false when a tap of the slot's sample moves more than one cell on an active
-    /// lane (the sample then goes through the per-level path).
+    /// `[RING][nb]` second far faces, slot-major: written and read for one-sided samples only.
+    twos: Vec<PlanTwo>,
+    /// Per slot: false when a tap of the slot's sample moves further than the plan takes (one
+    /// cell central, two one-sided) on an active lane (the sample then goes through the
+    /// per-level path).
     ok: [bool; RING],
 }
 
@@ -36,25 +39,29 @@ impl<T: Real> Ring<T> {
         Self {
             nb,
             plans: vec![Plan::default(); RING * nb],
+            twos: vec![PlanTwo::default(); RING * nb],
             ok: [true; RING],
         }
     }
 
     /// Sample `i`'s slot, to plan into.
     #[inline(always)]
-    fn slot_mut(&mut self, i: usize) -> (&mut [Plan<T>], &mut bool) {
+    fn slot_mut(&mut self, i: usize) -> (&mut [Plan<T>], &mut [PlanTwo], &mut bool) {
         let s = i % RING;
+        let r = s * self.nb..(s + 1) * self.nb;
         (
-            &mut self.plans[s * self.nb..(s + 1) * self.nb],
+            &mut self.plans[r.clone()],
+            &mut self.twos[r],
             &mut self.ok[s],
         )
     }
 
     /// Sample `i`'s slot, to compute from.
     #[inline(always)]
-    fn slot(&self, i: usize) -> (&[Plan<T>], bool) {
+    fn slot(&self, i: usize) -> (&[Plan<T>], &[PlanTwo], bool) {
         let s = i % RING;
-        (&self.plans[s * self.nb..(s + 1) * self.nb], self.ok[s])
+        let r = s * self.nb..(s + 1) * self.nb;
+        (&self.plans[r.clone()], &self.twos[r], self.ok[s])
     }
 }
 
@@ -100,8 +107,9 @@ impl<'a, T: Real> Blocks<'a, T> {
     }
 
     /// Plans a stencil sample (unit centre `uc`, unit taps `ut` of the `sides` in use)
-    /// for every live block into `plans` and prefetches from `buf` what the block will touch;
-    /// false if a tap moves more than one cell on an active lane.
+    /// for every live block into `plans` (and, for a one-sided sample, `twos`) and prefetches
+    /// from `buf` what the block will touch; false if a tap moves more than one cell (central
+    /// samples) or two cells (one-sided samples) on an active lane.
     #[inline(always)]
     fn plan_stencil(
         &self,
@@ -109,14 +117,23 @@ impl<'a, T: Real> Blocks<'a, T> {
         ut: [[T; 2]; 3],
         sides: Sides,
         plans: &mut [Plan<T>],
+        twos: &mut [PlanTwo],
         buf: &[T],
     ) -> bool {
         let mut good = true;
         for (bi, blk) in self.blocks.iter().enumerate().take(self.live) {
-            let pl = &mut plans[bi];
-            good &= blk.plan(&self.consts[bi], uc, ut, sides, true, pl);
-            if good {
-                block_prefetch(blk, pl, buf);
+            let (pl, two) = (&mut plans[bi], &mut twos[bi]);
+            let k = &self.consts[bi];
+            if sides == Sides::Both {
+                good &= blk.plan::<T, false>(k, uc, ut, sides, true, pl, two);
+                if good {
+                    block_prefetch::<T, false>(blk, pl, two, buf);
+                }
+            } else {
+                good &= blk.plan::<T, true>(k, uc, ut, sides, true, pl, two);
+                if good {
+                    block_prefetch::<T, true>(blk, pl, two, buf);
+                }
             }
         }
         good
@@ -202,7 +219,7 @@ impl HashGrid {
         let mut ring = Ring::new(blocks.len());
         let plan = |ring: &mut Ring<T>, _: &[T], i: usize| {
             let uc = unit(xs[i]);
-            let (plans, _) = ring.slot_mut(i);
+            let (plans, _, _) = ring.slot_mut(i);
             for (bi, blk) in blocks.iter().enumerate().take(b.live) {
                 let pl = &mut plans[bi];
                 blk.plan_centre(&b.consts[bi], uc, pl);
@@ -220,7 +237,7 @@ impl HashGrid {
                     out[row + d] = xs[i][d] / radius;
                 }
             }
-            let (plans, _) = ring.slot(i);
+            let (plans, _, _) = ring.slot(i);
             for (bi, blk) in blocks.iter().enumerate() {
                 let o = row + xd + 2 * blk.level0;
                 let n = 2 * blk.n_levels;
@@ -271,12 +288,12 @@ impl HashGrid {
         let mut ring = Ring::new(blocks.len());
         let plan = |ring: &mut Ring<T>, _: &[T], i: usize| {
             let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
-            let (plans, ok) = ring.slot_mut(i);
-            *ok = b.plan_stencil(uc, ut, rows(i).1, plans, table);
+            let (plans, twos, ok) = ring.slot_mut(i);
+            *ok = b.plan_stencil(uc, ut, rows(i).1, plans, twos, table);
         };
         let compute = |ring: &Ring<T>, out: &mut [T], i: usize| {
             let (r, sides) = rows(i);
-            let (plans, ok) = ring.slot(i);
+            let (plans, twos, ok) = ring.slot(i);
             if !ok {
                 // Rare: the whole sample through the per-level path.
                 self.encode_fd(table, xs[i], taps[i], radius, active, out, &r);
@@ -290,7 +307,12 @@ impl HashGrid {
                     }
                     continue;
                 }
-                block_forward(blk, &b.consts[bi], &plans[bi], table, out, &br, sides);
+                let (k, pl, two) = (&b.consts[bi], &plans[bi], &twos[bi]);
+                if sides == Sides::Both {
+                    block_forward::<T, false>(blk, k, pl, two, table, out, &br, sides);
+                } else {
+                    block_forward::<T, true>(blk, k, pl, two, table, out, &br, sides);
+                }
             }
             if self.include_xyz {
                 for p in 0..7 {
@@ -327,19 +349,24 @@ impl HashGrid {
         let mut ring = Ring::new(blocks.len());
         let plan = |ring: &mut Ring<T>, grad: &[T], i: usize| {
             let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
-            let (plans, ok) = ring.slot_mut(i);
-            *ok = b.plan_stencil(uc, ut, rows(i).1, plans, grad);
+            let (plans, twos, ok) = ring.slot_mut(i);
+            *ok = b.plan_stencil(uc, ut, rows(i).1, plans, twos, grad);
         };
         let compute = |ring: &Ring<T>, grad: &mut [T], i: usize| {
             let (r, sides) = rows(i);
-            let (plans, ok) = ring.slot(i);
+            let (plans, twos, ok) = ring.slot(i);
             if !ok {
                 self.encode_fd_backward(xs[i], taps[i], radius, active, d_out, &r, grad);
                 return;
             }
             for (bi, blk) in blocks.iter().enumerate().take(b.live) {
                 let br = r.map(|v| v + xd + 2 * blk.level0);
-                block_backward(blk, &b.consts[bi], &plans[bi], grad, d_out, &br, sides);
+                let (k, pl, two) = (&b.consts[bi], &plans[bi], &twos[bi]);
+                if sides == Sides::Both {
+                    block_backward::<T, false>(blk, k, pl, two, grad, d_out, &br, sides);
+                } else {
+                    block_backward::<T, true>(blk, k, pl, two, grad, d_out, &br, sides);
+                }
             }
         };
         pipeline(xs.len(), &mut ring, grad, plan, compute);
@@ -356,8 +383,9 @@ mod tests {
 
     /// The batched level-parallel path against the naive reference, forward and backward, on
     /// grids with a partial last block, dense and hashed levels, with and without the xyz prefix:
-    /// taps one cell away on fine levels, inside the cell, several cells away (per-sample
-    /// fallback), at the box faces, and every progressive mask.
+    /// taps one cell away on fine levels, two cells away (the one-sided span of 2), inside the
+    /// cell, several cells away (per-sample fallback), at the box faces, and every progressive
+    /// mask.
     #[test]
     fn batch_matches_naive() {
         let mut rng = Pcg64Mcg::seed_from_u64(23);
@@ -391,10 +419,11 @@ mod tests {
                     if i % 9 == 0 {
                         c = [r, -r, rng.random_range(-r..r)];
                     }
-                    let eps = match i % 4 {
+                    let eps = match i % 5 {
                         0 | 1 => g.fd_eps(active, r),
                         2 => 0.3 * g.fd_eps(active, r),
-                        _ => 0.2, // several cells: per-sample fallback
+                        3 => 2.0 * g.fd_eps(active, r), // two cells on the finest level
+                        _ => 0.2,                       // several cells: per-sample fallback
                     };
                     xs.push(c);
                     taps.push([0, 1, 2].map(|a| [(c[a] + eps).min(r), (c[a] - eps).max(-r)]));
@@ -514,5 +543,56 @@ mod tests {
             }
         }
         assert!(worst < 1e-12, "centre batch vs naive max diff {worst}");
+    }
+
+    /// The fast plan takes one-sided taps that move up to two cells of the finest active level
+    /// (the one-sided span of 2 stays on the level-parallel path) and refuses three, on either
+    /// side; central samples keep their one-cell plan (two cells go to the fallback).
+    #[test]
+    fn plan_accepts_two_cells_and_refuses_three() {
+        let g = HashGrid::new(&HashGridConfig {
+            n_levels: 16,
+            n_features_per_level: 2,
+            log2_hashmap_size: 12,
+            base_resolution: 16.0,
+            per_level_scale: 1.3195,
+            include_xyz: true,
+            ..Default::default()
+        });
+        let blocks = g.lane_blocks().unwrap();
+        let b = Blocks::<f64>::new(blocks, 16);
+        let table = vec![0.0f64; g.n_params()];
+        let mut plans = vec![Plan::default(); blocks.len()];
+        let mut twos = vec![PlanTwo::default(); blocks.len()];
+        let r = 1.0;
+        let eps = g.fd_eps(16, r);
+        // ε is `scale/(scale + 1)` of a finest cell, so from the middle of a finest cell k·ε
+        // moves exactly k cells (either way) for k ≤ 3.
+        let sc = g.levels[15].scale;
+        let c = [0.6, 0.3, 0.45].map(|u: f64| ((u * sc).round() / sc) * 2.0 * r - r);
+        for (span, want) in [(1.0, true), (2.0, true), (3.0, false)] {
+            for sides in [Sides::Plus, Sides::Minus, Sides::Both] {
+                let want = want && (sides != Sides::Both || span == 1.0);
+                let h = span * eps;
+                let taps = [0, 1, 2].map(|a| {
+                    let (p, m) = (c[a] + h, c[a] - h);
+                    match sides {
+                        Sides::Plus => [p, c[a]],
+                        Sides::Minus => [c[a], m],
+                        Sides::Both => [p, m],
+                    }
+                });
+                let (uc, ut) = HashGrid::unit_stencil(c, taps, r);
+                let ok = b.plan_stencil(uc, ut, sides, &mut plans, &mut twos, &table);
+                assert_eq!(ok, want, "span {span}, {sides:?}");
+                if span == 2.0 && sides != Sides::Both {
+                    let last = twos.last().unwrap();
+                    assert!(
+                        (0..3).any(|a| last.any_far2[a].iter().any(|&f| f)),
+                        "span 2 planned no second far face ({sides:?})"
+                    );
+                }
+            }
+        }
     }
 }

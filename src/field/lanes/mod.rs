@@ -13,10 +13,14 @@
 //! Geometry of the stencil (same as the per-level path): the centre cell's 8 corners, plus for
 //! each of the six taps the 4 corners of the far face of the tap's cell when the tap leaves the
 //! centre cell (a tap moves at most one cell when `ε` is at most one cell of the finest active
-//! level). Along the tap's axis the value is a linear interpolation between two faces chosen per
-//! lane from `[face 0, face 1, far face]`; the faces are bilinear interpolations with the shared
-//! weights of the two other axes. A sample whose taps move further falls back to the per-level
-//! path (the caller checks the returned flag).
+//! level), and, for one-sided samples only, those of a second far face when a tap moves two
+//! cells (the one-sided taps at `2ε`, `RenderConfig::fd_one_sided_span`). Along the tap's axis
+//! the value is a linear interpolation between two faces chosen per lane from
+//! `[face 0, face 1, far face, second far face]`; the faces are bilinear interpolations with the
+//! shared weights of the two other axes. A sample whose taps move further falls back to the
+//! per-level path (the caller checks the returned flag). The kernels take a const `TWO`: the
+//! central samples' form (`false`) never reads or writes a second far face, so it compiles to
+//! the one-cell stencil alone ([`PlanTwo`]).
 //!
 //! The code is generic over [`Real`]: the `f64` gradient checks run this same code.
 
@@ -108,7 +112,8 @@ type L<T> = [T; LANES];
 pub(crate) struct Plan<T> {
     /// Centre-corner flat indices (corner bit `a` = offset along axis `a`).
     ce: [L<u32>; 8],
-    /// Far-face flat indices `[axis][+/−][face corner]`.
+    /// Far-face flat indices `[axis][+/−][face corner]`: the face one cell beyond the centre
+    /// cell's (`cell + 2` for the `+` tap, `cell − 1` for the `−` tap).
     fe: [[[L<u32>; 4]; 2]; 3],
     /// Whether any lane of tap `[axis][+/−]` leaves the centre cell.
     any_far: [[bool; 2]; 3],
@@ -118,6 +123,30 @@ pub(crate) struct Plan<T> {
     w: [[L<T>; 2]; 3],
     /// Fractions of the taps along their axis.
     ft: [[L<T>; 2]; 3],
+}
+
+/// What a one-sided sample's taps two cells out add to its [`Plan`]: the second far faces.
+/// Kept apart from the plan and read only by the kernels' `TWO = true` forms, so that the
+/// central path's plans and code are those of the one-cell stencil (a plan holding these
+/// fields slowed the central step by about 4 %).
+#[derive(Clone)]
+pub(crate) struct PlanTwo {
+    /// Whether any lane of tap `[axis][+/−]` moves two cells.
+    any_far2: [[bool; 2]; 3],
+    /// Second far face, one more cell out (`cell + 3` / `cell − 2`), `[axis][+/−][face corner]`.
+    fe2: [[[L<u32>; 4]; 2]; 3],
+    /// Lane masks: the tap `[axis][+/−]` moves two cells.
+    far2_m: [[L<u32>; 2]; 3],
+}
+
+impl Default for PlanTwo {
+    fn default() -> Self {
+        Self {
+            any_far2: [[false; 2]; 3],
+            fe2: [[[[0; LANES]; 4]; 2]; 3],
+            far2_m: [[[0; LANES]; 2]; 3],
+        }
+    }
 }
 
 impl<T: Real> Default for Plan<T> {
@@ -238,9 +267,11 @@ impl LaneBlock {
     /// Fills `pl` with the cells, fractions, tap offsets and (if `indices`) table indices of one
     /// sample; the taps of a side not in `sides` are left out (a one-sided difference: nothing
     /// of theirs is planned, read or written). Returns false if a tap moves more than one cell
-    /// on an active lane.
+    /// on an active lane, or, with `TWO` (one-sided samples only), two cells; the second far
+    /// faces then go to `two` (left untouched without `TWO`).
     #[inline(always)]
-    fn plan<T: Real>(
+    #[allow(clippy::too_many_arguments)]
+    fn plan<T: Real, const TWO: bool>(
         &self,
         k: &LaneConsts<T>,
         uc: [T; 3],
@@ -248,7 +279,9 @@ impl LaneBlock {
         sides: Sides,
         indices: bool,
         pl: &mut Plan<T>,
+        two: &mut PlanTwo,
     ) -> bool {
+        debug_assert!(!TWO || sides != Sides::Both);
         let half = T::from_f64(0.5);
         let mut cell = [[0u32; LANES]; 3];
         let mut ok = true;
@@ -264,25 +297,53 @@ impl LaneBlock {
             for p in 0..2 {
                 if !sides.slots().contains(&p) {
                     pl.any_far[a][p] = false;
+                    if TWO {
+                        two.any_far2[a][p] = false;
+                    }
                     continue;
                 }
-                let (mut bad, mut any) = (0u32, 0u32);
-                let (ftp, farm) = (&mut pl.ft[a][p], &mut pl.far_m[a][p]);
-                for l in 0..LANES {
-                    let pos = k.sc[l] * ut[a][p] + half;
-                    let fl = pos.floor();
-                    ftp[l] = pos - fl;
-                    let d = fl.cell_u32().wrapping_sub(cell[a][l]);
-                    // + tap: d ∈ {0, 1}; − tap: d ∈ {0, −1}.
-                    let dd = if p == 0 { d } else { d.wrapping_add(1) };
-                    let act = k.act[l];
-                    bad |= if dd > 1 { act } else { 0 };
-                    let far = if d != 0 { act } else { 0 };
-                    farm[l] = far;
-                    any |= far;
+                let (mut bad, mut any, mut any2) = (0u32, 0u32, 0u32);
+                let ftp = &mut pl.ft[a][p];
+                let farm = &mut pl.far_m[a][p];
+                if !TWO {
+                    // Taps at most one cell out: d ∈ {0, 1} (+) or {0, −1} (−).
+                    for l in 0..LANES {
+                        let pos = k.sc[l] * ut[a][p] + half;
+                        let fl = pos.floor();
+                        ftp[l] = pos - fl;
+                        let d = fl.cell_u32().wrapping_sub(cell[a][l]);
+                        let dd = if p == 0 { d } else { d.wrapping_add(1) };
+                        let act = k.act[l];
+                        bad |= if dd > 1 { act } else { 0 };
+                        let far = if d != 0 { act } else { 0 };
+                        farm[l] = far;
+                        any |= far;
+                    }
+                } else {
+                    // One-sided taps may sit up to 2ε out (`fd_one_sided_span`).
+                    let far2m = &mut two.far2_m[a][p];
+                    for l in 0..LANES {
+                        let pos = k.sc[l] * ut[a][p] + half;
+                        let fl = pos.floor();
+                        ftp[l] = pos - fl;
+                        let d = fl.cell_u32().wrapping_sub(cell[a][l]);
+                        // Cells moved: + tap d ∈ {0, 1, 2}; − tap d ∈ {0, −1, −2}.
+                        let moved = if p == 0 { d } else { 0u32.wrapping_sub(d) };
+                        let act = k.act[l];
+                        bad |= if moved > 2 { act } else { 0 };
+                        let far = if moved != 0 { act } else { 0 };
+                        let far2 = if moved == 2 { act } else { 0 };
+                        farm[l] = far;
+                        far2m[l] = far2;
+                        any |= far;
+                        any2 |= far2;
+                    }
                 }
                 ok &= bad == 0;
                 pl.any_far[a][p] = any != 0;
+                if TWO {
+                    two.any_far2[a][p] = any2 != 0;
+                }
             }
         }
         if !ok || !indices {
@@ -331,6 +392,16 @@ impl LaneBlock {
                     pl.fe[a][0][q] = self.index(&pairs[a][q], &ta);
                 }
             }
+            // + tap moving two cells: second far face at cell+3 (two multipliers more).
+            if TWO && two.any_far2[a][0] {
+                let (t, m) = (&terms[a][2], &two.far2_m[a][0]);
+                for l in 0..LANES {
+                    ta[l] = t[l].wrapping_add((m[l] & mul[l]).wrapping_mul(2));
+                }
+                for q in 0..4 {
+                    two.fe2[a][0][q] = self.index(&pairs[a][q], &ta);
+                }
+            }
             // − tap: far face at cell+d, term `terms[a][1]` minus `|d|` multipliers.
             if pl.any_far[a][1] {
                 let (t, m) = (&terms[a][1], &pl.far_m[a][1]);
@@ -339,6 +410,16 @@ impl LaneBlock {
                 }
                 for q in 0..4 {
                     pl.fe[a][1][q] = self.index(&pairs[a][q], &ta);
+                }
+            }
+            // − tap moving two cells: second far face at cell−2.
+            if TWO && two.any_far2[a][1] {
+                let (t, m) = (&terms[a][1], &two.far2_m[a][1]);
+                for l in 0..LANES {
+                    ta[l] = t[l].wrapping_sub((m[l] & mul[l]).wrapping_mul(2));
+                }
+                for q in 0..4 {
+                    two.fe2[a][1][q] = self.index(&pairs[a][q], &ta);
                 }
             }
         }
@@ -407,12 +488,15 @@ fn faces<T: Real>(w: &[[L<T>; 2]; 3], a: usize) -> [L<T>; 4] {
 }
 
 /// Forward of one block for one sample from its plan; `rows[p]` is the start of point `p`'s
-/// 16 values. The rows of taps of a side not in `sides` are not written.
+/// 16 values. The rows of taps of a side not in `sides` are not written. `TWO`: the sample was
+/// planned with second far faces (`two`, one-sided samples); without it `two` is not read.
 #[inline(always)]
-fn block_forward<T: Real>(
+#[allow(clippy::too_many_arguments)]
+fn block_forward<T: Real, const TWO: bool>(
     blk: &LaneBlock,
     k: &LaneConsts<T>,
     pl: &Plan<T>,
+    two: &PlanTwo,
     table: &[T],
     out: &mut [T],
     rows: &[usize; 7],
@@ -449,25 +533,64 @@ fn block_forward<T: Real>(
                     }
                 }
             }
+            let far2_here = TWO && two.any_far2[a][p];
+            let mut ff2 = [T::ZERO; LANES];
+            if far2_here {
+                for q in 0..4 {
+                    let fv = gather(table, &two.fe2[a][p][q]);
+                    for l in 0..LANES {
+                        ff2[l] = wq[q][l].fma(fv[l], ff2[l]);
+                    }
+                }
+            }
             let mut v = [T::ZERO; LANES];
             let (ft, farm) = (&pl.ft[a][p], &pl.far_m[a][p]);
-            for l in 0..LANES {
-                let t = ft[l];
-                let far = farm[l] != 0;
-                // + tap: (f0, f1) or (f1, far); − tap: (f0, f1) or (far, f0).
-                let (lo, hi) = if p == 0 {
-                    (
-                        if far { f1[l] } else { f0[l] },
-                        if far { ff[l] } else { f1[l] },
-                    )
-                } else {
-                    (
-                        if far { ff[l] } else { f0[l] },
-                        if far { f0[l] } else { f1[l] },
-                    )
-                };
-                let x = (T::ONE - t).fma(lo, t * hi);
-                v[l] = if k.act[l] != 0 { x } else { T::ZERO };
+            // The one- and two-cell forms in separate loops: without a lane two cells out, the
+            // plain selects.
+            if !far2_here {
+                for l in 0..LANES {
+                    let t = ft[l];
+                    let far = farm[l] != 0;
+                    // + tap: (f0, f1) or (f1, far); − tap: (f0, f1) or (far, f0).
+                    let (lo, hi) = if p == 0 {
+                        (
+                            if far { f1[l] } else { f0[l] },
+                            if far { ff[l] } else { f1[l] },
+                        )
+                    } else {
+                        (
+                            if far { ff[l] } else { f0[l] },
+                            if far { f0[l] } else { f1[l] },
+                        )
+                    };
+                    let x = (T::ONE - t).fma(lo, t * hi);
+                    v[l] = if k.act[l] != 0 { x } else { T::ZERO };
+                }
+            } else {
+                let far2m = &two.far2_m[a][p];
+                for l in 0..LANES {
+                    let t = ft[l];
+                    let (far, far2) = (farm[l] != 0, far2m[l] != 0);
+                    // + tap: (f0, f1), (f1, far) or (far, far2); − tap: (f0, f1), (far, f0)
+                    // or (far2, far).
+                    let (lo, hi) = if p == 0 {
+                        let lo = if far { f1[l] } else { f0[l] };
+                        let hi = if far { ff[l] } else { f1[l] };
+                        (
+                            if far2 { ff[l] } else { lo },
+                            if far2 { ff2[l] } else { hi },
+                        )
+                    } else {
+                        let lo = if far { ff[l] } else { f0[l] };
+                        let hi = if far { f0[l] } else { f1[l] };
+                        (
+                            if far2 { ff2[l] } else { lo },
+                            if far2 { ff[l] } else { hi },
+                        )
+                    };
+                    let x = (T::ONE - t).fma(lo, t * hi);
+                    v[l] = if k.act[l] != 0 { x } else { T::ZERO };
+                }
             }
             let r = rows[1 + 2 * a + p];
             out[r..r + n].copy_from_slice(&v[..n]);
@@ -477,12 +600,14 @@ fn block_forward<T: Real>(
 
 /// Backward of one block for one sample from its plan: scatter-adds the gradient of the 16
 /// values of each of the seven points (`d_out[rows[p]..]`) into `grad`; the rows of taps of a
-/// side not in `sides` are not read.
+/// side not in `sides` are not read. `TWO` and `two` as in [`block_forward`].
 #[inline(always)]
-fn block_backward<T: Real>(
+#[allow(clippy::too_many_arguments)]
+fn block_backward<T: Real, const TWO: bool>(
     blk: &LaneBlock,
     k: &LaneConsts<T>,
     pl: &Plan<T>,
+    two: &PlanTwo,
     grad: &mut [T],
     d_out: &[T],
     rows: &[usize; 7],
@@ -516,22 +641,59 @@ fn block_backward<T: Real>(
         for p in sides.slots() {
             let g = load(rows[1 + 2 * a + p]);
             let mut dfar = [T::ZERO; LANES];
+            let mut dfar2 = [T::ZERO; LANES];
             let (ft, farm) = (&pl.ft[a][p], &pl.far_m[a][p]);
-            for l in 0..LANES {
-                let t = ft[l];
-                let (glo, ghi) = ((T::ONE - t) * g[l], t * g[l]);
-                let far = farm[l] != 0;
-                let z = T::ZERO;
-                if p == 0 {
-                    // (f0, f1) ← (glo, ghi), or (f1, far) ← (glo, ghi).
-                    d0[l] += if far { z } else { glo };
-                    d1[l] += if far { glo } else { ghi };
-                    dfar[l] = if far { ghi } else { z };
-                } else {
-                    // (f0, f1) ← (glo, ghi), or (far, f0) ← (glo, ghi).
-                    d0[l] += if far { ghi } else { glo };
-                    d1[l] += if far { z } else { ghi };
-                    dfar[l] = if far { glo } else { z };
+            let z = T::ZERO;
+            let far2_here = TWO && two.any_far2[a][p];
+            if !far2_here {
+                for l in 0..LANES {
+                    let t = ft[l];
+                    let (glo, ghi) = ((T::ONE - t) * g[l], t * g[l]);
+                    let far = farm[l] != 0;
+                    if p == 0 {
+                        // (f0, f1) ← (glo, ghi), or (f1, far) ← (glo, ghi).
+                        d0[l] += if far { z } else { glo };
+                        d1[l] += if far { glo } else { ghi };
+                        dfar[l] = if far { ghi } else { z };
+                    } else {
+                        // (f0, f1) ← (glo, ghi), or (far, f0) ← (glo, ghi).
+                        d0[l] += if far { ghi } else { glo };
+                        d1[l] += if far { z } else { ghi };
+                        dfar[l] = if far { glo } else { z };
+                    }
+                }
+            } else {
+                let far2m = &two.far2_m[a][p];
+                for l in 0..LANES {
+                    let t = ft[l];
+                    let (glo, ghi) = ((T::ONE - t) * g[l], t * g[l]);
+                    let (far, far2) = (farm[l] != 0, far2m[l] != 0);
+                    if p == 0 {
+                        // … or (far, far2) ← (glo, ghi).
+                        d0[l] += if far { z } else { glo };
+                        let d1v = if far { glo } else { ghi };
+                        d1[l] += if far2 { z } else { d1v };
+                        let fv = if far { ghi } else { z };
+                        dfar[l] = if far2 { glo } else { fv };
+                        dfar2[l] = if far2 { ghi } else { z };
+                    } else {
+                        // … or (far2, far) ← (glo, ghi).
+                        let d0v = if far { ghi } else { glo };
+                        d0[l] += if far2 { z } else { d0v };
+                        d1[l] += if far { z } else { ghi };
+                        let fv = if far { glo } else { z };
+                        dfar[l] = if far2 { ghi } else { fv };
+                        dfar2[l] = if far2 { glo } else { z };
+                    }
+                }
+            }
+            if far2_here {
+                for q in 0..4 {
+                    let mut v = [T::ZERO; LANES];
+                    for l in 0..LANES {
+                        v[l] = wq[q][l] * dfar2[l];
+                    }
+                    scatter_add(grad, &two.fe2[a][p][q], &v);
                 }
             }
             if pl.any_far[a][p] {
@@ -559,9 +721,14 @@ fn block_backward<T: Real>(
 
 /// Prefetches what [`block_forward`] / [`block_backward`] will touch for a sample: the centre
 /// cell's four x-rows and the far faces of the y and z taps that leave it (x taps stay in the
-/// centre's rows or the next entries).
+/// centre's rows or the next entries). `TWO` and `two` as in [`block_forward`].
 #[inline(always)]
-fn block_prefetch<T: Real>(blk: &LaneBlock, pl: &Plan<T>, buf: &[T]) {
+fn block_prefetch<T: Real, const TWO: bool>(
+    blk: &LaneBlock,
+    pl: &Plan<T>,
+    two: &PlanTwo,
+    buf: &[T],
+) {
     let n = 2 * blk.n_levels;
     for c in [0usize, 2, 4, 6] {
         for l in (0..n).step_by(2) {
@@ -578,6 +745,9 @@ fn block_prefetch<T: Real>(blk: &LaneBlock, pl: &Plan<T>, buf: &[T]) {
                     // Lanes whose tap stays in the cell prefetch a centre line again: harmless.
                     for l in (0..n).step_by(2) {
                         prefetch(buf, pl.fe[a][p][q][l]);
+                        if TWO && two.any_far2[a][p] {
+                            prefetch(buf, two.fe2[a][p][q][l]);
+                        }
                     }
                 }
             }
