@@ -33,7 +33,7 @@
 //! `NEUS_AUG_BENCH_MLP_ONLY=1` stops after the MLP products and the SDF layer's parts (0–2);
 //! `NEUS_AUG_CHUNK` overrides `chunk_samples`, `NEUS_AUG_BENCH_FD_EVERY` the main measurement's
 //! `render.fd_central_every`, `NEUS_AUG_BENCH_FD_SPAN` its and the one-sided pairs'
-//! `render.fd_one_sided_span` (taps two cells out at 2); both also apply to
+//! `render.fd_one_sided_span` (default: the `fast` preset's, 2: taps two cells out); both apply to
 //! `NEUS_AUG_BENCH_STEP_ONLY`. Profiling aids (callgrind, no AVX-512 there: build
 //! with `RUSTFLAGS="-C target-cpu=x86-64-v3"`): `NEUS_AUG_BENCH_HASH_ONLY=<log2 T>` runs only the
 //! hash-grid paths, `NEUS_AUG_BENCH_STEP_ONLY=1` two small training steps.
@@ -941,12 +941,18 @@ fn perturbed(model: &NeusModel) -> Vec<f32> {
     params
 }
 
-/// `render.fd_one_sided_span` from `NEUS_AUG_BENCH_FD_SPAN` (default 1).
+/// The `fast` preset's tap layout: `(render.fd_central_every, render.fd_one_sided_span)`.
+fn fast_layout() -> (u32, f32) {
+    let r = neus_aug::reconstruct::Preset::Fast.config().model.render;
+    (r.fd_central_every, r.fd_one_sided_span)
+}
+
+/// `render.fd_one_sided_span` from `NEUS_AUG_BENCH_FD_SPAN` (default: the `fast` preset's).
 fn fd_span() -> f32 {
     std::env::var("NEUS_AUG_BENCH_FD_SPAN")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(1.0)
+        .unwrap_or(fast_layout().1)
 }
 
 /// The main measurement's (and `NEUS_AUG_BENCH_STEP_ONLY`'s) tap layout:
@@ -962,22 +968,26 @@ fn fd_layout(cfg: &mut ModelConfig) {
     cfg.render.fd_one_sided_span = fd_span();
 }
 
-/// One-sided finite differences (`render.fd_central_every = 4`, opt-in; issue 14) against
-/// central ones, on the default network: without the curvature loss (the presets' steps before
-/// their curvature ramp: every sample one-sided) and with it (the recipe's 5e-4: every fourth
-/// sample central, carrying the curvature term). Each pair measured back to back.
+/// One-sided finite differences as the `fast` preset takes them (`render.fd_central_every = 4`,
+/// `render.fd_one_sided_span = 2`; issue 14) against central ones (the network's default), on the
+/// default network: without the curvature loss (the steps before the curvature ramp: every
+/// sample one-sided) and with it (the recipe's 5e-4: every fourth sample central, carrying the
+/// curvature term). Each pair measured back to back.
 fn fd_sides(peak: f64, secs: f64) {
     use neus_aug::render::Scheduled;
     for (phase, curvature) in [("no curvature loss", 0.0), ("curvature loss 5e-4", 5e-4)] {
         let mut rates = [0.0; 2];
-        for (j, every) in [1u32, 4].into_iter().enumerate() {
+        for (j, every) in [1u32, fast_layout().0].into_iter().enumerate() {
             let mut cfg = ModelConfig::default();
             cfg.loss.curvature = Scheduled::Constant(curvature);
             cfg.render.fd_central_every = every;
             cfg.render.fd_one_sided_span = fd_span();
             let (m, mut p, o, _) = setup(cfg);
             let st = train_iterations(&m, &mut p, &o, secs);
-            let label = format!("default network, {phase}, render.fd_central_every = {every}");
+            let label = format!(
+                "default network, {phase}, render.fd_central_every = {every}, fd_one_sided_span = {}",
+                fd_span()
+            );
             rates[j] = report(&label, &m, &st, peak, false);
         }
         println!(

@@ -136,6 +136,18 @@ impl Preset {
                 // (results/geometry/error-map-fast-2026-11-26, results/geometry/closing-2026-11-26).
                 train.error_map.share = 0.5;
                 mesh.close_radius = 1;
+                // One-sided finite differences over 2ε (`render.fd_one_sided_span`) on every
+                // sample before the curvature ramp and on three in four during it (issue 14: a
+                // step with fewer taps). Against the central runs of the same recipe, three
+                // seeds: the suite's mean ratio to the floor 2.18× against 2.22× (24 runs), the
+                // holes grids 1.37× against 1.33× with every genus right in both (18 runs;
+                // double-torus 6 % worse on average, thin 13–25 % better; blocks' genus wrong at
+                // all three seeds, against two central); the step 1.09–1.15× faster, blob s0
+                // end to end in 151 s against 169 s on Zen 4
+                // (results/geometry/span2-fast-2026-11-26,
+                // results/speed/zen4-2026-11-26-span2-fast).
+                model.render.fd_central_every = 4;
+                model.render.fd_one_sided_span = 2.0;
             }
             Preset::Quick => {
                 // `fast` shortened to 1400 steps, every schedule kept at its fraction of the run
@@ -156,6 +168,10 @@ impl Preset {
                 // figures (issue 14) were measured so, and the map was not run at 1400 steps.
                 c.train.error_map = Default::default();
                 c.mesh.close_radius = 0;
+                // Central differences too, for the same reason (one-sided ones over ε at 1630
+                // steps lost to central at 1400, results/speed/zen4-2026-11-26-one-sided).
+                c.model.render.fd_central_every = 1;
+                c.model.render.fd_one_sided_span = 1.0;
                 c.model.render.num_samples_per_ray = 128;
                 c.data.downscale = 2;
                 // Held-out views at fast's resolution, so PSNR and normal error compare.
@@ -328,9 +344,24 @@ mod tests {
             q.data.downscale * q.data.render_downscale,
             f.data.downscale * f.data.render_downscale
         );
-        // Without fast's error map and closing (quick was measured without them).
+        // Without fast's error map, closing and one-sided differences (quick was measured
+        // without them).
         assert!(f.train.error_map.share > 0.0 && f.mesh.close_radius > 0);
         assert!(q.train.error_map.is_default() && q.mesh.close_radius == 0);
+        assert_eq!(
+            (
+                f.model.render.fd_central_every,
+                f.model.render.fd_one_sided_span
+            ),
+            (4, 2.0)
+        );
+        assert_eq!(
+            (
+                q.model.render.fd_central_every,
+                q.model.render.fd_one_sided_span
+            ),
+            (1, 1.0)
+        );
         // Everything else is fast's, shortened to QUICK_ITERATIONS steps.
         let short = scale_run_length(&f, QUICK_ITERATIONS);
         assert_eq!(q.train.iterations, QUICK_ITERATIONS);
@@ -341,6 +372,8 @@ mod tests {
         back.data.render_downscale = f.data.render_downscale;
         back.train.error_map = f.train.error_map.clone();
         back.mesh.close_radius = f.mesh.close_radius;
+        back.model.render.fd_central_every = f.model.render.fd_central_every;
+        back.model.render.fd_one_sided_span = f.model.render.fd_one_sided_span;
         // The decay comes from the reference directly; the rescaled f32 may differ in its last bit.
         let (dq, ds) = (
             q.model.render.occupancy.ema_decay,

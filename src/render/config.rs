@@ -62,8 +62,9 @@ pub struct RenderConfig {
     /// `k` so the loss stays an unbiased estimate of the mean over all samples. A one-sided
     /// difference costs about 0.6 of a central one in the hash grid and the SDF network: the
     /// training step runs 1.3× faster on one-sided samples (`cargo bench --bench field`, issue
-    /// 14), at a measured accuracy cost (`results/speed/zen4-2026-11-26-one-sided`). This
-    /// project's choice, not a reference's. Renders and meshes after training always use central
+    /// 14), at a measured accuracy cost over `ε` (`results/speed/zen4-2026-11-26-one-sided`)
+    /// and none over `2ε` (`fd_one_sided_span = 2`, the `fast` preset's layout with `k = 4`:
+    /// `results/geometry/span2-fast-2026-11-26`). This project's choice, not a reference's. Renders and meshes after training always use central
     /// differences. Left out of a config's text at 1, so earlier configs and hashes hold.
     #[serde(skip_serializing_if = "is_one")]
     pub fd_central_every: u32,
