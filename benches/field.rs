@@ -466,18 +466,34 @@ fn gemm_compare(peak: f64) {
     println!("  worst build/matrixmultiply ratio over these shapes: {worst:.2}");
 }
 
+/// Points per sample the step evaluates (centre and taps): 7 with central differences; with
+/// `render.fd_central_every = k > 1`, 4 (three one-sided taps) while the curvature loss is off
+/// and `(7 + 4(k − 1))/k` on average while it is on (every `k`-th sample central).
+fn points_per_sample(model: &NeusModel) -> f64 {
+    let k = model.config.render.fd_central_every.max(1) as f64;
+    if k == 1.0 {
+        7.0
+    } else if model.config.loss.curvature.at(0) > 0.0 {
+        (7.0 + 4.0 * (k - 1.0)) / k
+    } else {
+        4.0
+    }
+}
+
 /// MLP multiply-adds per sample, forward and backward as `train_step` computes them: SDF hidden
-/// layers on 7 points, SDF output layer (all channels at the centre, the SDF at each tap), colour
-/// MLP; backward = weight gradient + input gradient of every layer (the colour input layer and
-/// the SDF input layer need their input gradient for the normals and the hash grid).
+/// layers on every point ([`points_per_sample`]), SDF output layer (all channels at the centre,
+/// the SDF at each tap), colour MLP; backward = weight gradient + input gradient of every layer
+/// (the colour input layer and the SDF input layer need their input gradient for the normals and
+/// the hash grid).
 fn mlp_macs_per_sample(model: &NeusModel) -> (f64, f64) {
     let s = &model.sdf_mlp.dims;
+    let pts = points_per_sample(model);
     let mut fwd = 0.0;
     for l in 0..s.len() - 2 {
-        fwd += 7.0 * (s[l] * s[l + 1]) as f64;
+        fwd += pts * (s[l] * s[l + 1]) as f64;
     }
     let wh = s[s.len() - 2] as f64;
-    fwd += wh * *s.last().unwrap() as f64 + 6.0 * wh;
+    fwd += wh * *s.last().unwrap() as f64 + (pts - 1.0) * wh;
     let c = &model.color_mlp.dims;
     fwd += (0..c.len() - 1)
         .map(|l| (c[l] * c[l + 1]) as f64)
@@ -741,8 +757,9 @@ fn report(label: &str, model: &NeusModel, st: &IterStats, peak: f64, detail: boo
         println!(
             "  where train_step's time goes (per sample, one core's time; shares of the phases):"
         );
+        let encode = format!("hash encode fwd ({:.2} points)", points_per_sample(model));
         for (name, v) in [
-            ("hash encode fwd (7 points)", p.encode_fwd),
+            (encode.as_str(), p.encode_fwd),
             ("SDF MLP fwd", p.sdf_mlp_fwd),
             ("normals + colour MLP fwd", p.color_fwd),
             ("alpha + compositing + loss", p.render),
