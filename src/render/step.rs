@@ -78,11 +78,12 @@ struct Chunk<'a, T> {
     app: &'a AppearanceConfig,
     radius: T,
     active: usize,
-    /// Finite-difference step (normalised units), `1/ε` and `1/(2ε)`.
+    /// Finite-difference step `ε` of a central difference (normalised units).
     eps: T,
     /// One-sided step `span·ε` (`RenderConfig::fd_one_sided_span`) and its inverse.
     eps1: T,
     inv_eps1: T,
+    /// `1/(2ε)`, a central difference's divisor.
     inv_2eps: T,
     /// Which samples take central differences: 1 = all, 0 = none (one-sided differences), `k` =
     /// those whose index in the batch is a multiple of `k` ([`NeusModel::central_every`]).
@@ -324,8 +325,9 @@ impl NeusModel {
                     k if (s / k) % 2 == 0 => Sides::Plus,
                     _ => Sides::Minus,
                 };
-                // Taps x ± ε·e_a, clamped to the box; an unused side's taps are the centre (they
-                // stay in the centre's cell, and the stencil skips them).
+                // Taps x ± h·e_a (h = ε central, span·ε one-sided), clamped to the box; an unused
+                // side's taps are the centre (they stay in the centre's cell, and the stencil
+                // skips them).
                 let used = sides.slots();
                 let h = if sides == Sides::Both { eps } else { c.eps1 };
                 let taps = [0, 1, 2].map(|a| {
