@@ -35,11 +35,14 @@ struct Ring<T> {
 }
 
 impl<T: Real> Ring<T> {
-    fn new(nb: usize) -> Self {
+    /// A ring for `nb` blocks; `twos`: with second far faces (the stencil drivers), without
+    /// for centre-only queries (then only [`plans_mut`](Self::plans_mut) and
+    /// [`plans`](Self::plans) may be used).
+    fn new(nb: usize, twos: bool) -> Self {
         Self {
             nb,
             plans: vec![Plan::default(); RING * nb],
-            twos: vec![PlanTwo::default(); RING * nb],
+            twos: vec![PlanTwo::default(); if twos { RING * nb } else { 0 }],
             ok: [true; RING],
         }
     }
@@ -62,6 +65,20 @@ impl<T: Real> Ring<T> {
         let s = i % RING;
         let r = s * self.nb..(s + 1) * self.nb;
         (&self.plans[r.clone()], &self.twos[r], self.ok[s])
+    }
+
+    /// Sample `i`'s plans alone, to plan into (centre-only queries).
+    #[inline(always)]
+    fn plans_mut(&mut self, i: usize) -> &mut [Plan<T>] {
+        let s = i % RING;
+        &mut self.plans[s * self.nb..(s + 1) * self.nb]
+    }
+
+    /// Sample `i`'s plans alone, to compute from (centre-only queries).
+    #[inline(always)]
+    fn plans(&self, i: usize) -> &[Plan<T>] {
+        let s = i % RING;
+        &self.plans[s * self.nb..(s + 1) * self.nb]
     }
 }
 
@@ -216,10 +233,10 @@ impl HashGrid {
         let b = Blocks::<T>::new(blocks, active);
         let inv = T::ONE / (radius + radius);
         let unit = |x: [T; 3]| [0, 1, 2].map(|a| (x[a] + radius) * inv);
-        let mut ring = Ring::new(blocks.len());
+        let mut ring = Ring::new(blocks.len(), false);
         let plan = |ring: &mut Ring<T>, _: &[T], i: usize| {
             let uc = unit(xs[i]);
-            let (plans, _, _) = ring.slot_mut(i);
+            let plans = ring.plans_mut(i);
             for (bi, blk) in blocks.iter().enumerate().take(b.live) {
                 let pl = &mut plans[bi];
                 blk.plan_centre(&b.consts[bi], uc, pl);
@@ -237,7 +254,7 @@ impl HashGrid {
                     out[row + d] = xs[i][d] / radius;
                 }
             }
-            let (plans, _, _) = ring.slot(i);
+            let plans = ring.plans(i);
             for (bi, blk) in blocks.iter().enumerate() {
                 let o = row + xd + 2 * blk.level0;
                 let n = 2 * blk.n_levels;
@@ -285,7 +302,7 @@ impl HashGrid {
         };
         let xd = self.xyz_dim();
         let b = Blocks::<T>::new(blocks, active);
-        let mut ring = Ring::new(blocks.len());
+        let mut ring = Ring::new(blocks.len(), true);
         let plan = |ring: &mut Ring<T>, _: &[T], i: usize| {
             let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
             let (plans, twos, ok) = ring.slot_mut(i);
@@ -346,7 +363,7 @@ impl HashGrid {
         };
         let xd = self.xyz_dim();
         let b = Blocks::<T>::new(blocks, active);
-        let mut ring = Ring::new(blocks.len());
+        let mut ring = Ring::new(blocks.len(), true);
         let plan = |ring: &mut Ring<T>, grad: &[T], i: usize| {
             let (uc, ut) = Self::unit_stencil(xs[i], taps[i], radius);
             let (plans, twos, ok) = ring.slot_mut(i);
