@@ -241,8 +241,8 @@ impl HashGrid {
                 let pl = &mut plans[bi];
                 blk.plan_centre(&b.consts[bi], uc, pl);
                 for c in [0usize, 2, 4, 6] {
-                    for l in (0..2 * blk.n_levels).step_by(2) {
-                        prefetch(table, pl.ce[c][l]);
+                    for j in 0..blk.n_levels {
+                        prefetch(table, pl.ce[c][j]);
                     }
                 }
             }
