@@ -9,7 +9,7 @@
 
 use super::{
     block_backward, block_forward, block_prefetch, corner, faces, gather, prefetch, LaneBlock,
-    LaneConsts, Plan, PlanTwo, L, LANES,
+    LaneConsts, Plan, PlanTwo, L, LANES, LV,
 };
 use crate::field::hashgrid::{fd_point, HashGrid, Sides};
 use crate::field::Real;
@@ -144,12 +144,12 @@ impl<'a, T: Real> Blocks<'a, T> {
             if sides == Sides::Both {
                 good &= blk.plan::<T, false>(k, uc, ut, sides, true, pl, two);
                 if good {
-                    block_prefetch::<T, false>(blk, pl, two, buf);
+                    block_prefetch::<T, false>(pl, two, buf);
                 }
             } else {
                 good &= blk.plan::<T, true>(k, uc, ut, sides, true, pl, two);
                 if good {
-                    block_prefetch::<T, true>(blk, pl, two, buf);
+                    block_prefetch::<T, true>(pl, two, buf);
                 }
             }
         }
@@ -241,7 +241,8 @@ impl HashGrid {
                 let pl = &mut plans[bi];
                 blk.plan_centre(&b.consts[bi], uc, pl);
                 for c in [0usize, 2, 4, 6] {
-                    for j in 0..blk.n_levels {
+                    // All 8 index lanes (see `block_prefetch`).
+                    for j in 0..LV {
                         prefetch(table, pl.ce[c][j]);
                     }
                 }

@@ -740,15 +740,13 @@ fn block_backward<T: Real, const TWO: bool>(
 /// cell's four x-rows and the far faces of the y and z taps that leave it (x taps stay in the
 /// centre's rows or the next entries). `TWO` and `two` as in [`block_forward`].
 #[inline(always)]
-fn block_prefetch<T: Real, const TWO: bool>(
-    blk: &LaneBlock,
-    pl: &Plan<T>,
-    two: &PlanTwo,
-    buf: &[T],
-) {
-    let n = blk.n_levels;
+fn block_prefetch<T: Real, const TWO: bool>(pl: &Plan<T>, two: &PlanTwo, buf: &[T]) {
+    // All 8 index lanes, whatever the block's level count: a fixed count unrolls without a
+    // compare and branch per prefetch (callgrind, `x86-64-v3`: the plan closures execute 10 %
+    // fewer instructions), and the lanes of missing levels hold indices of the block's first
+    // level (valid addresses; a prefetch never faults anyway).
     for c in [0usize, 2, 4, 6] {
-        for j in 0..n {
+        for j in 0..LV {
             prefetch(buf, pl.ce[c][j]);
         }
     }
@@ -760,9 +758,11 @@ fn block_prefetch<T: Real, const TWO: bool>(
                         continue;
                     }
                     // Lanes whose tap stays in the cell prefetch a centre line again: harmless.
-                    for j in 0..n {
+                    for j in 0..LV {
                         prefetch(buf, pl.fe[a][p][q][j]);
-                        if TWO && two.any_far2[a][p] {
+                    }
+                    if TWO && two.any_far2[a][p] {
+                        for j in 0..LV {
                             prefetch(buf, two.fe2[a][p][q][j]);
                         }
                     }
