@@ -631,108 +631,132 @@ fn block_backward<T: Real, const TWO: bool>(
     sides: Sides,
 ) {
     let n = 2 * blk.n_levels;
-    let load = |r: usize| -> L<T> {
-        let mut g = [T::ZERO; LANES];
-        if n == LANES {
-            g.copy_from_slice(&d_out[r..r + LANES]);
-        } else {
-            g[..n].copy_from_slice(&d_out[r..r + n]);
-        }
-        for l in 0..LANES {
-            g[l] = if k.act[l] != 0 { g[l] } else { T::ZERO };
-        }
-        g
-    };
     let mut dc = [[T::ZERO; LANES]; 8];
-    for a in 0..3 {
-        let wq = faces(&pl.w, a);
-        let mut d0 = [T::ZERO; LANES];
-        let mut d1 = [T::ZERO; LANES];
-        if a == 0 {
-            let g = load(rows[0]);
+    bwd_axis::<T, TWO, 0>(k, pl, two, grad, d_out, rows, sides, n, &mut dc);
+    bwd_axis::<T, TWO, 1>(k, pl, two, grad, d_out, rows, sides, n, &mut dc);
+    bwd_axis::<T, TWO, 2>(k, pl, two, grad, d_out, rows, sides, n, &mut dc);
+    for c in 0..8 {
+        scatter_add(grad, &pl.ce[c], &dc[c]);
+    }
+}
+
+/// Row `r` of `d_out` (`n` values, the rest and inactive levels' lanes zero).
+#[inline(always)]
+fn load_row<T: Real>(k: &LaneConsts<T>, d_out: &[T], r: usize, n: usize) -> L<T> {
+    let mut g = [T::ZERO; LANES];
+    if n == LANES {
+        g.copy_from_slice(&d_out[r..r + LANES]);
+    } else {
+        g[..n].copy_from_slice(&d_out[r..r + n]);
+    }
+    for l in 0..LANES {
+        g[l] = if k.act[l] != 0 { g[l] } else { T::ZERO };
+    }
+    g
+}
+
+/// Axis `A` of [`block_backward`]: scatters the far faces of the taps along `A` and adds the
+/// centre corners' share to `dc`. A const axis, so that the corner indices are constants (a
+/// loop over the axes computed them at run time, with bounds checks).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn bwd_axis<T: Real, const TWO: bool, const A: usize>(
+    k: &LaneConsts<T>,
+    pl: &Plan<T>,
+    two: &PlanTwo,
+    grad: &mut [T],
+    d_out: &[T],
+    rows: &[usize; 7],
+    sides: Sides,
+    n: usize,
+    dc: &mut [L<T>; 8],
+) {
+    let a = A;
+    let load = |r: usize| load_row(k, d_out, r, n);
+    let wq = faces(&pl.w, a);
+    let mut d0 = [T::ZERO; LANES];
+    let mut d1 = [T::ZERO; LANES];
+    if a == 0 {
+        let g = load(rows[0]);
+        for l in 0..LANES {
+            d0[l] = pl.w[0][0][l] * g[l];
+            d1[l] = pl.w[0][1][l] * g[l];
+        }
+    }
+    for p in sides.slots() {
+        let g = load(rows[1 + 2 * a + p]);
+        let mut dfar = [T::ZERO; LANES];
+        let mut dfar2 = [T::ZERO; LANES];
+        let (ft, farm) = (&pl.ft[a][p], &pl.far_m[a][p]);
+        let z = T::ZERO;
+        let far2_here = TWO && two.any_far2[a][p];
+        if !far2_here {
             for l in 0..LANES {
-                d0[l] = pl.w[0][0][l] * g[l];
-                d1[l] = pl.w[0][1][l] * g[l];
+                let t = ft[l];
+                let (glo, ghi) = ((T::ONE - t) * g[l], t * g[l]);
+                let far = farm[l] != 0;
+                if p == 0 {
+                    // (f0, f1) ← (glo, ghi), or (f1, far) ← (glo, ghi).
+                    d0[l] += if far { z } else { glo };
+                    d1[l] += if far { glo } else { ghi };
+                    dfar[l] = if far { ghi } else { z };
+                } else {
+                    // (f0, f1) ← (glo, ghi), or (far, f0) ← (glo, ghi).
+                    d0[l] += if far { ghi } else { glo };
+                    d1[l] += if far { z } else { ghi };
+                    dfar[l] = if far { glo } else { z };
+                }
+            }
+        } else {
+            let far2m = &two.far2_m[a][p];
+            for l in 0..LANES {
+                let t = ft[l];
+                let (glo, ghi) = ((T::ONE - t) * g[l], t * g[l]);
+                let (far, far2) = (farm[l] != 0, far2m[l] != 0);
+                if p == 0 {
+                    // … or (far, far2) ← (glo, ghi).
+                    d0[l] += if far { z } else { glo };
+                    let d1v = if far { glo } else { ghi };
+                    d1[l] += if far2 { z } else { d1v };
+                    let fv = if far { ghi } else { z };
+                    dfar[l] = if far2 { glo } else { fv };
+                    dfar2[l] = if far2 { ghi } else { z };
+                } else {
+                    // … or (far2, far) ← (glo, ghi).
+                    let d0v = if far { ghi } else { glo };
+                    d0[l] += if far2 { z } else { d0v };
+                    d1[l] += if far { z } else { ghi };
+                    let fv = if far { glo } else { z };
+                    dfar[l] = if far2 { ghi } else { fv };
+                    dfar2[l] = if far2 { glo } else { z };
+                }
             }
         }
-        for p in sides.slots() {
-            let g = load(rows[1 + 2 * a + p]);
-            let mut dfar = [T::ZERO; LANES];
-            let mut dfar2 = [T::ZERO; LANES];
-            let (ft, farm) = (&pl.ft[a][p], &pl.far_m[a][p]);
-            let z = T::ZERO;
-            let far2_here = TWO && two.any_far2[a][p];
-            if !far2_here {
+        if far2_here {
+            for q in 0..4 {
+                let mut v = [T::ZERO; LANES];
                 for l in 0..LANES {
-                    let t = ft[l];
-                    let (glo, ghi) = ((T::ONE - t) * g[l], t * g[l]);
-                    let far = farm[l] != 0;
-                    if p == 0 {
-                        // (f0, f1) ← (glo, ghi), or (f1, far) ← (glo, ghi).
-                        d0[l] += if far { z } else { glo };
-                        d1[l] += if far { glo } else { ghi };
-                        dfar[l] = if far { ghi } else { z };
-                    } else {
-                        // (f0, f1) ← (glo, ghi), or (far, f0) ← (glo, ghi).
-                        d0[l] += if far { ghi } else { glo };
-                        d1[l] += if far { z } else { ghi };
-                        dfar[l] = if far { glo } else { z };
-                    }
+                    v[l] = wq[q][l] * dfar2[l];
                 }
-            } else {
-                let far2m = &two.far2_m[a][p];
-                for l in 0..LANES {
-                    let t = ft[l];
-                    let (glo, ghi) = ((T::ONE - t) * g[l], t * g[l]);
-                    let (far, far2) = (farm[l] != 0, far2m[l] != 0);
-                    if p == 0 {
-                        // … or (far, far2) ← (glo, ghi).
-                        d0[l] += if far { z } else { glo };
-                        let d1v = if far { glo } else { ghi };
-                        d1[l] += if far2 { z } else { d1v };
-                        let fv = if far { ghi } else { z };
-                        dfar[l] = if far2 { glo } else { fv };
-                        dfar2[l] = if far2 { ghi } else { z };
-                    } else {
-                        // … or (far2, far) ← (glo, ghi).
-                        let d0v = if far { ghi } else { glo };
-                        d0[l] += if far2 { z } else { d0v };
-                        d1[l] += if far { z } else { ghi };
-                        let fv = if far { glo } else { z };
-                        dfar[l] = if far2 { ghi } else { fv };
-                        dfar2[l] = if far2 { glo } else { z };
-                    }
-                }
-            }
-            if far2_here {
-                for q in 0..4 {
-                    let mut v = [T::ZERO; LANES];
-                    for l in 0..LANES {
-                        v[l] = wq[q][l] * dfar2[l];
-                    }
-                    scatter_add(grad, &two.fe2[a][p][q], &v);
-                }
-            }
-            if pl.any_far[a][p] {
-                for q in 0..4 {
-                    let mut v = [T::ZERO; LANES];
-                    for l in 0..LANES {
-                        v[l] = wq[q][l] * dfar[l];
-                    }
-                    scatter_add(grad, &pl.fe[a][p][q], &v);
-                }
+                scatter_add(grad, &two.fe2[a][p][q], &v);
             }
         }
-        for q in 0..4 {
-            let (c0, c1) = (corner(a, 0, q), corner(a, 1, q));
-            for l in 0..LANES {
-                dc[c0][l] = wq[q][l].fma(d0[l], dc[c0][l]);
-                dc[c1][l] = wq[q][l].fma(d1[l], dc[c1][l]);
+        if pl.any_far[a][p] {
+            for q in 0..4 {
+                let mut v = [T::ZERO; LANES];
+                for l in 0..LANES {
+                    v[l] = wq[q][l] * dfar[l];
+                }
+                scatter_add(grad, &pl.fe[a][p][q], &v);
             }
         }
     }
-    for c in 0..8 {
-        scatter_add(grad, &pl.ce[c], &dc[c]);
+    for q in 0..4 {
+        let (c0, c1) = (corner(a, 0, q), corner(a, 1, q));
+        for l in 0..LANES {
+            dc[c0][l] = wq[q][l].fma(d0[l], dc[c0][l]);
+            dc[c1][l] = wq[q][l].fma(d1[l], dc[c1][l]);
+        }
     }
 }
 
