@@ -450,8 +450,9 @@ impl LaneBlock {
 fn gather<T: Real>(buf: &[T], idx: &I) -> L<T> {
     let mut v = [T::ZERO; LANES];
     for j in 0..LV {
-        // SAFETY: every index is `2·offset_l + 2·(e mod size_l)` (+1 for the odd lane) <
-        // `2·n_entries`, and the callers assert `buf.len() >= n_params = 2·n_entries`.
+        // SAFETY: every index is `2·offset_l + 2·(e mod size_l)`, so the pair `idx[j]`,
+        // `idx[j] + 1` lies below `2·n_entries`, and the callers assert
+        // `buf.len() >= n_params = 2·n_entries`.
         let pair = unsafe { *(buf.as_ptr().add(idx[j] as usize) as *const [T; 2]) };
         v[2 * j] = pair[0];
         v[2 * j + 1] = pair[1];
