@@ -64,8 +64,9 @@ pub struct RenderConfig {
     /// training step runs 1.3× faster on one-sided samples (`cargo bench --bench field`, issue
     /// 14), at a measured accuracy cost over `ε` (`results/speed/zen4-2026-11-26-one-sided`)
     /// and none over `2ε` (`fd_one_sided_span = 2`, the `fast` preset's layout with `k = 4`:
-    /// `results/geometry/span2-fast-2026-11-26`). This project's choice, not a reference's. Renders and meshes after training always use central
-    /// differences. Left out of a config's text at 1, so earlier configs and hashes hold.
+    /// `results/geometry/span2-fast-2026-11-26`). This project's choice, not a reference's.
+    /// Renders and meshes after training always use central differences. Left out of a
+    /// config's text at 1, so earlier configs and hashes hold.
     #[serde(skip_serializing_if = "is_one")]
     pub fd_central_every: u32,
     /// Span of a one-sided difference in units of `ε` (default 1): its taps sit at
