@@ -631,11 +631,19 @@ fn block_backward<T: Real, const TWO: bool>(
     rows: &[usize; 7],
     sides: Sides,
 ) {
-    let n = 2 * blk.n_levels;
+    let inp = BwdIn {
+        k,
+        pl,
+        two,
+        d_out,
+        rows,
+        sides,
+        n: 2 * blk.n_levels,
+    };
     let mut dc = [[T::ZERO; LANES]; 8];
-    bwd_axis::<T, TWO, 0>(k, pl, two, grad, d_out, rows, sides, n, &mut dc);
-    bwd_axis::<T, TWO, 1>(k, pl, two, grad, d_out, rows, sides, n, &mut dc);
-    bwd_axis::<T, TWO, 2>(k, pl, two, grad, d_out, rows, sides, n, &mut dc);
+    bwd_axis::<T, TWO, 0>(&inp, grad, &mut dc);
+    bwd_axis::<T, TWO, 1>(&inp, grad, &mut dc);
+    bwd_axis::<T, TWO, 2>(&inp, grad, &mut dc);
     for c in 0..8 {
         scatter_add(grad, &pl.ce[c], &dc[c]);
     }
@@ -656,22 +664,36 @@ fn load_row<T: Real>(k: &LaneConsts<T>, d_out: &[T], r: usize, n: usize) -> L<T>
     g
 }
 
+/// The read-only inputs of one sample's [`block_backward`], shared by its three [`bwd_axis`]
+/// calls: `n` is the block's active lane count (`2 × levels`).
+struct BwdIn<'a, T> {
+    k: &'a LaneConsts<T>,
+    pl: &'a Plan<T>,
+    two: &'a PlanTwo,
+    d_out: &'a [T],
+    rows: &'a [usize; 7],
+    sides: Sides,
+    n: usize,
+}
+
 /// Axis `A` of [`block_backward`]: scatters the far faces of the taps along `A` and adds the
 /// centre corners' share to `dc`. A const axis, so that the corner indices are constants (a
 /// loop over the axes computed them at run time, with bounds checks).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn bwd_axis<T: Real, const TWO: bool, const A: usize>(
-    k: &LaneConsts<T>,
-    pl: &Plan<T>,
-    two: &PlanTwo,
+    inp: &BwdIn<'_, T>,
     grad: &mut [T],
-    d_out: &[T],
-    rows: &[usize; 7],
-    sides: Sides,
-    n: usize,
     dc: &mut [L<T>; 8],
 ) {
+    let BwdIn {
+        k,
+        pl,
+        two,
+        d_out,
+        rows,
+        sides,
+        n,
+    } = *inp;
     let a = A;
     let load = |r: usize| load_row(k, d_out, r, n);
     let wq = faces(&pl.w, a);
