@@ -13,7 +13,7 @@
 //!
 //! | build | [`Kernel`] | why |
 //! |---|---|---|
-//! | x86-64 with AVX-512 (`target-cpu=native` on Zen 4, Skylake-X, …) | [`Kernel::WideTiles`] | the whole `6 × 64` (`8 × 32`, `8 × 16`) tile in 24–32 of the 32 `zmm` registers |
+//! | x86-64 with AVX-512 (`target-cpu=native` on Zen 4, Skylake-X, …) | [`Kernel::WideTiles`] | the whole `6 × 64` (`8 × 32`, `8 × 16`) tile in 24–32 of the 32 `zmm` registers; for `f32` through explicit intrinsics (`zmm_tile`), since LLVM's Intel tuning would otherwise vectorise it 256 bits wide |
 //! | x86-64 with AVX2 + FMA, no AVX-512 (Zen 2/3, Haswell … Alder Lake, `x86-64-v3`) | [`Kernel::PanelTiles`] | the wide tiles need 48 `ymm` accumulators for `N` = 64 and spill; `6 × 16` panels use 12 of the 16, and sums longer than [`PANEL_KC`] go in `k` chunks that stay in L1 |
 //! | anything else (`x86-64-v2`, no target flags, aarch64, …) | [`Kernel::MatrixMultiply`] | `matrixmultiply` picks its own kernel at run time (AVX-512, AVX2+FMA, AVX, SSE2, NEON), so a portable binary still gets the CPU's vector units; portable Rust compiled for SSE2 or unmeasured NEON would not do better |
 //!
@@ -27,7 +27,10 @@
 //! 79–113 GFLOP/s (68–97 % of the 8-wide FMA peak) against `matrixmultiply` 46–87 GFLOP/s,
 //! ratio 1.19–2.48 over the nine listed shapes, the wide tiles 54–67 GFLOP/s there (spilling);
 //! native AVX-512 build, wide tiles 111–117 GFLOP/s (96–101 %), panel tiles 80–115,
-//! `matrixmultiply` 47–85, ratio 1.36–2.37.
+//! `matrixmultiply` 47–85, ratio 1.36–2.37. On an Intel Xeon (family 6 model 167, native build,
+//! one thread): wide tiles 106–170 GFLOP/s, 1.23–1.76× `matrixmultiply`, against 0.56–1.20× before
+//! `zmm_tile`; its `x86-64-v3` build's panel tiles reach only 0.73–0.79× the crate on the
+//! forward shapes (`results/speed/intel-2026-11-26-prefer-256`).
 //!
 //! Generic over [`Real`]: the `f64` gradient checks run the same code.
 
@@ -406,7 +409,9 @@ fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const P: usize, cons
         assert!((i0 + R - 1) * a.rs + (kk - 1) * a.cs < a.data.len());
         assert!((kk - 1) * ldb + N <= b.len());
     }
-    if P == N {
+    if P == N && zmm_tile::<T, N, R>(i0, kk, a, b, ldb, &mut out) {
+        // Done in explicit AVX-512 registers (`f32` on an AVX-512 build).
+    } else if P == N {
         // `out` itself is the register tile.
         for k in 0..kk {
             // SAFETY: `k·ldb + N ≤ b.len()` and `(i0+r)·rs + k·cs < a.len()` by the asserts.
@@ -444,6 +449,83 @@ fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const P: usize, cons
         f(i0 + r, &mut out[r]);
         c[(i0 + r) * ldc..(i0 + r) * ldc + N].copy_from_slice(&out[r]);
     }
+}
+
+/// The `R × N` tile of [`tile`] in explicit AVX-512 registers when `T` is `f32` and the build
+/// has AVX-512 (`N` = 16, 32, 64: `R·N/16` `zmm` accumulators, at most 24 of the 32, plus the
+/// `N/16` vectors of a `B` row and one broadcast); `false` (nothing done) otherwise.
+///
+/// Why not leave it to the compiler as the portable loop does: LLVM's tuning for Intel's AVX-512
+/// cores (Skylake-X to Sapphire Rapids, and what `target-cpu=native` names them) prefers 256-bit
+/// vectors (its `prefer-256-bit` tuning flag), so the portable loop's `6 × 64` tile becomes 48
+/// `ymm` accumulators and spills, with the fused Softplus epilogue on top. Measured with
+/// `NEUS_AUG_BENCH_MLP_ONLY=1` on an Intel Xeon (family 6, native build named `rocketlake`, one
+/// thread): the portable tile ran at 33–49 % of the 512-bit FMA peak, 0.55× `matrixmultiply` on
+/// the `[3584 × 35] → 64` forward; built with the tuning flag off it ran at 61–80 %
+/// (`results/speed/intel-2026-11-26-prefer-256`). Intrinsics are 512 bits wide whatever the
+/// tuning. Zen 4 (`znver4`) has no such preference; there both paths emit the same kind of code.
+///
+/// The sums are the portable loop's, term for term (one fused multiply-add per term, `k` in
+/// order), so the results are bit-identical to it (tested).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn zmm_tile<T: Real, const N: usize, const R: usize>(
+    i0: usize,
+    kk: usize,
+    a: Strided<T>,
+    b: &[T],
+    ldb: usize,
+    out: &mut [[T; N]; R],
+) -> bool {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx512f"))]
+    if std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>()
+        && N.is_multiple_of(16)
+        && N <= 64
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: `T` is `f32` (same type, so same size and layout); the slices keep their
+        // lengths and `out` its shape.
+        let (ad, bd, out) = unsafe {
+            (
+                std::slice::from_raw_parts(a.data.as_ptr().cast::<f32>(), a.data.len()),
+                std::slice::from_raw_parts(b.as_ptr().cast::<f32>(), b.len()),
+                &mut *(out as *mut [[T; N]; R]).cast::<[[f32; N]; R]>(),
+            )
+        };
+        let v = N / 16;
+        // SAFETY: AVX-512F is enabled for the whole build (the `cfg` above). Every load and store
+        // stays inside `out` (`16·q + 16 ≤ N`) or inside the extents [`tile`] asserted before
+        // calling: `(i0 + r)·rs + k·cs < a.len()` and `k·ldb + N ≤ b.len()` for `k < kk`.
+        unsafe {
+            let mut acc = [[_mm512_setzero_ps(); 4]; R];
+            for r in 0..R {
+                for q in 0..v {
+                    acc[r][q] = _mm512_loadu_ps(out[r].as_ptr().add(16 * q));
+                }
+            }
+            for k in 0..kk {
+                let brow = bd.as_ptr().add(k * ldb);
+                let mut bv = [_mm512_setzero_ps(); 4];
+                for q in 0..v {
+                    bv[q] = _mm512_loadu_ps(brow.add(16 * q));
+                }
+                for r in 0..R {
+                    let x = _mm512_set1_ps(*ad.get_unchecked((i0 + r) * a.rs + k * a.cs));
+                    for q in 0..v {
+                        acc[r][q] = _mm512_fmadd_ps(x, bv[q], acc[r][q]);
+                    }
+                }
+            }
+            for r in 0..R {
+                for q in 0..v {
+                    _mm512_storeu_ps(out[r].as_mut_ptr().add(16 * q), acc[r][q]);
+                }
+            }
+        }
+        return true;
+    }
+    let _ = (i0, kk, a, b, ldb, out);
+    false
 }
 
 #[cfg(test)]
@@ -609,6 +691,60 @@ mod tests {
             }
         }
         assert!(worst < 2.0f64.powi(-22), "f32 kernels vs f64: {worst:e}");
+    }
+
+    /// The two register kernels add the same terms in the same order with one fused
+    /// multiply-add each, so in `f32` they agree bit for bit, whichever of them runs in explicit
+    /// AVX-512 registers ([`zmm_tile`] on AVX-512 builds) and whichever the compiler vectorised.
+    #[test]
+    fn register_kernels_agree_bit_for_bit_in_f32() {
+        let mut rng = Pcg64Mcg::seed_from_u64(33);
+        for &(m, kk, n) in &SHAPES {
+            for transposed in [false, true] {
+                for init_kind in 0..3 {
+                    let (a, b, c0, bias) = operands::<f32>(&mut rng, m, kk, n);
+                    let (ldb, ldc) = (n + 3, n + 2);
+                    let sa = if transposed {
+                        Strided::transposed(&a[..], m)
+                    } else {
+                        Strided::row_major(&a[..], kk)
+                    };
+                    let init = match init_kind {
+                        0 => Init::Zero,
+                        1 => Init::Accumulate,
+                        _ => Init::Bias(&bias),
+                    };
+                    let run = |kernel: Kernel| {
+                        let mut c = c0.clone();
+                        gemm_then_with(
+                            kernel,
+                            m,
+                            kk,
+                            n,
+                            sa,
+                            &b,
+                            ldb,
+                            &mut c,
+                            ldc,
+                            init,
+                            |_, row| {
+                                for v in row.iter_mut() {
+                                    *v = v.max(0.25);
+                                }
+                            },
+                        );
+                        c
+                    };
+                    let (wide, panel) = (run(Kernel::WideTiles), run(Kernel::PanelTiles));
+                    assert!(
+                        wide.iter()
+                            .zip(&panel)
+                            .all(|(x, y)| x.to_bits() == y.to_bits()),
+                        "m {m}, k {kk}, n {n}, transposed {transposed}, init {init_kind}"
+                    );
+                }
+            }
+        }
     }
 
     /// Cutting the sum over `k` into chunks changes no bit: every output adds its terms in the
