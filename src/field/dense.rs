@@ -551,6 +551,43 @@ mod tests {
         (v(m * kk + 1), v(kk * ldb), v(m * ldc), v(n))
     }
 
+    /// The left operand `A` (`m × kk`): row-major, or the transpose of a row-major `kk × m`.
+    fn a_operand<T>(a: &[T], m: usize, kk: usize, transposed: bool) -> Strided<'_, T> {
+        if transposed {
+            Strided::transposed(a, m)
+        } else {
+            Strided::row_major(a, kk)
+        }
+    }
+
+    /// `C₀` through `kernel` with [`operands`]' leading dimensions (`ldb = n + 3`, `ldc = n + 2`)
+    /// and the epilogue `f`: the resulting `C`.
+    #[allow(clippy::too_many_arguments)]
+    fn through<T: Real>(
+        kernel: Kernel,
+        m: usize,
+        kk: usize,
+        n: usize,
+        sa: Strided<T>,
+        b: &[T],
+        c0: &[T],
+        init: Init<T>,
+        f: impl FnMut(usize, &mut [T]),
+    ) -> Vec<T> {
+        let mut c = c0.to_vec();
+        gemm_then_with(kernel, m, kk, n, sa, b, n + 3, &mut c, n + 2, init, f);
+        c
+    }
+
+    /// [`Init`] number `kind`: 0 zero, 1 accumulate, otherwise the bias row.
+    fn init_of<T>(kind: usize, bias: &[T]) -> Init<'_, T> {
+        match kind {
+            0 => Init::Zero,
+            1 => Init::Accumulate,
+            _ => Init::Bias(bias),
+        }
+    }
+
     const SHAPES: [(usize, usize, usize); 14] = [
         (13, 35, 64),
         (7, 64, 32),
@@ -582,16 +619,8 @@ mod tests {
                     for init_kind in 0..3 {
                         let (a, b, c0, bias) = operands::<f64>(&mut rng, m, kk, n);
                         let (ldb, ldc) = (n + 3, n + 2);
-                        let sa = if transposed {
-                            Strided::transposed(&a[..], m)
-                        } else {
-                            Strided::row_major(&a[..], kk)
-                        };
-                        let init = match init_kind {
-                            0 => Init::Zero,
-                            1 => Init::Accumulate,
-                            _ => Init::Bias(&bias),
-                        };
+                        let (sa, init) =
+                            (a_operand(&a, m, kk, transposed), init_of(init_kind, &bias));
                         let mut c1 = c0.clone();
                         let mut seen = vec![0usize; m];
                         gemm_then_with(
@@ -669,21 +698,17 @@ mod tests {
                     }
                 };
                 for kernel in Kernel::ALL {
-                    let mut c = c0.clone();
-                    gemm_then_with(
+                    check(&through(
                         kernel,
                         m,
                         kk,
                         n,
                         sa,
                         &b,
-                        ldb,
-                        &mut c,
-                        ldc,
+                        &c0,
                         Init::Accumulate,
                         |_, _| {},
-                    );
-                    check(&c);
+                    ));
                 }
                 let mut c = c0.clone();
                 gemm(m, kk, n, sa, &b, ldb, &mut c, ldc, Init::Accumulate);
@@ -703,37 +728,13 @@ mod tests {
             for transposed in [false, true] {
                 for init_kind in 0..3 {
                     let (a, b, c0, bias) = operands::<f32>(&mut rng, m, kk, n);
-                    let (ldb, ldc) = (n + 3, n + 2);
-                    let sa = if transposed {
-                        Strided::transposed(&a[..], m)
-                    } else {
-                        Strided::row_major(&a[..], kk)
-                    };
-                    let init = match init_kind {
-                        0 => Init::Zero,
-                        1 => Init::Accumulate,
-                        _ => Init::Bias(&bias),
-                    };
+                    let (sa, init) = (a_operand(&a, m, kk, transposed), init_of(init_kind, &bias));
                     let run = |kernel: Kernel| {
-                        let mut c = c0.clone();
-                        gemm_then_with(
-                            kernel,
-                            m,
-                            kk,
-                            n,
-                            sa,
-                            &b,
-                            ldb,
-                            &mut c,
-                            ldc,
-                            init,
-                            |_, row| {
-                                for v in row.iter_mut() {
-                                    *v = v.max(0.25);
-                                }
-                            },
-                        );
-                        c
+                        through(kernel, m, kk, n, sa, &b, &c0, init, |_, row| {
+                            for v in row.iter_mut() {
+                                *v = v.max(0.25);
+                            }
+                        })
                     };
                     let (wide, panel) = (run(Kernel::WideTiles), run(Kernel::PanelTiles));
                     assert!(
