@@ -460,14 +460,14 @@ fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const P: usize, cons
 /// vectors (its `prefer-256-bit` tuning flag), so the portable loop's `6 × 64` tile becomes 48
 /// `ymm` accumulators and spills, with the fused Softplus epilogue on top. Measured with
 /// `NEUS_AUG_BENCH_MLP_ONLY=1` on an Intel Xeon (family 6, native build named `rocketlake`, one
-/// thread): the portable tile ran at 33–49 % of the 512-bit FMA peak, 0.55× `matrixmultiply` on
-/// the `[3584 × 35] → 64` forward; built with the tuning flag off it ran at 61–80 %
+/// thread): the portable tile ran at 32–49 % of the 512-bit FMA peak, 0.55× `matrixmultiply` on
+/// the `[3584 × 35] → 64` forward; built with the tuning flag off it ran at 48–80 %
 /// (`results/speed/intel-2026-11-26-prefer-256`). Intrinsics are 512 bits wide whatever the
-/// tuning. Zen 4 (`znver4`) has no such preference; there both paths emit the same kind of code.
+/// tuning. Zen 4 (`znver4`) has no such preference: there the portable tile already ran at
+/// 96–101 % of the peak (module docs), and the intrinsics ask for the same operations.
 ///
 /// The sums are the portable loop's, term for term (one fused multiply-add per term, `k` in
 /// order), so the results are bit-identical to it (tested).
-#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 fn zmm_tile<T: Real, const N: usize, const R: usize>(
     i0: usize,
