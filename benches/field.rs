@@ -8,7 +8,10 @@
 //!    portable `mul_add`, on every rayon thread, best of 3);
 //! 2. the MLP products: every kernel of `field::dense` (the build's marked `*`) against
 //!    `matrixmultiply` and the naive triple loop (the peers measured in the same run), with the
-//!    build's kernel over `matrixmultiply` per shape, and the SDF hidden layer's parts;
+//!    build's kernel over `matrixmultiply` per shape, and the SDF hidden layer's parts. The crate
+//!    picks its kernel at run time (the header names it): an `x86-64-v3` build on an AVX-512 CPU
+//!    meets its AVX-512 kernel, not the one AVX2 CPUs run, unless built with
+//!    `MMTEST_FEATURE=avx,avx2,fma` (see `matrixmultiply_kernel`);
 //! 3. SDF queries: the occupancy grid's warm-up update (all 128³ cells);
 //! 4. the whole training iteration as the training loop runs it, on a realistic batch: rays from
 //!    49 cameras around the unit sphere through a sphere SDF of radius 0.5, the occupancy grid
@@ -189,6 +192,48 @@ fn machine() {
         build.join(", "),
         cpu.join(", ")
     );
+}
+
+/// The f32 kernel `matrixmultiply` picks on this CPU, by the crate's own rule (0.3.11,
+/// `src/sgemm_kernel.rs`, `detect`, run time): AVX-512F when its `avx512` feature is on (a
+/// default feature, which this project keeps) and the CPU has it, else AVX2 + FMA, else AVX, else
+/// its portable one (aarch64: NEON). `MMTEST_FEATURE`, a comma-separated list read when the crate
+/// is compiled (`src/target_features.rs`), limits it to the features named there: building with
+/// `MMTEST_FEATURE=avx,avx2,fma` makes an AVX-512 CPU run the kernel an AVX2-only CPU runs.
+fn matrixmultiply_kernel() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let allowed = |f: &str| match option_env!("MMTEST_FEATURE") {
+            None | Some("") => true,
+            Some(list) => list.split(',').any(|x| x.trim() == f),
+        };
+        let has = |f: &str| {
+            allowed(f)
+                && match f {
+                    "avx512f" => std::arch::is_x86_feature_detected!("avx512f"),
+                    "avx2" => std::arch::is_x86_feature_detected!("avx2"),
+                    "fma" => std::arch::is_x86_feature_detected!("fma"),
+                    _ => std::arch::is_x86_feature_detected!("avx"),
+                }
+        };
+        if has("avx512f") {
+            "AVX-512F"
+        } else if has("fma") && has("avx2") {
+            "AVX2 + FMA"
+        } else if has("avx") {
+            "AVX"
+        } else {
+            "SSE2"
+        }
+    }
+    #[cfg(target_arch = "aarch64")]
+    {
+        "NEON"
+    }
+    #[cfg(not(any(target_arch = "x86_64", target_arch = "aarch64")))]
+    {
+        "portable"
+    }
 }
 
 /// STREAM-like triad `a[i] = b[i] + s·c[i]` over 32 Mi f32 per array (3 × 128 MB, far beyond
@@ -378,9 +423,15 @@ fn gemm_compare(peak: f64) {
     let threads = rayon::current_num_threads() as f64;
     let per_core = peak / threads / 1e9;
     let mut rng = Pcg64Mcg::seed_from_u64(1);
+    let mm = matrixmultiply_kernel();
     println!(
-        "\n== MLP products, one thread, f32, GFLOP/s (% of the per-core FMA peak {per_core:.0}), best of 5; build kernel: {KERNEL:?} =="
+        "\n== MLP products, one thread, f32, GFLOP/s (% of the per-core FMA peak {per_core:.0}), best of 5; build kernel: {KERNEL:?}; matrixmultiply runs its {mm} kernel here =="
     );
+    if mm == "AVX-512F" && !cfg!(target_feature = "avx512f") {
+        println!(
+            "  note: this build targets CPUs without AVX-512, but the crate chooses at run time and runs AVX-512 here; on an AVX2-only CPU it runs its AVX2 + FMA kernel. Build with MMTEST_FEATURE=avx,avx2,fma (the crate's switch) to measure that peer."
+        );
+    }
     let names: Vec<String> = Kernel::ALL
         .iter()
         .map(|k| format!("{}{k:?}", if *k == KERNEL { "*" } else { "" }))
@@ -463,7 +514,9 @@ fn gemm_compare(peak: f64) {
             ratio
         );
     }
-    println!("  worst build/matrixmultiply ratio over these shapes: {worst:.2}");
+    println!(
+        "  worst build/matrixmultiply ratio over these shapes: {worst:.2} (against the crate's {mm} kernel)"
+    );
 }
 
 /// Points per sample the step evaluates (centre and taps): 7 with central differences; with

@@ -29,8 +29,12 @@
 //! native AVX-512 build, wide tiles 111–117 GFLOP/s (96–101 %), panel tiles 80–115,
 //! `matrixmultiply` 47–85, ratio 1.36–2.37. On an Intel Xeon (family 6 model 167, native build,
 //! one thread): wide tiles 106–170 GFLOP/s, 1.23–1.76× `matrixmultiply`, against 0.56–1.20× before
-//! `zmm_tile`; its `x86-64-v3` build's panel tiles reach only 0.73–0.79× the crate on the
-//! forward shapes (`results/speed/intel-2026-11-26-prefer-256`).
+//! `zmm_tile`. `matrixmultiply` chooses its kernel at run time, so the `x86-64-v3` figures above,
+//! taken on AVX-512 CPUs, compare with its AVX-512 kernel, not the AVX2 one that AVX2-only CPUs
+//! get. On the same Xeon, `x86-64-v3` build, with the crate held to its AVX2 kernel
+//! (`MMTEST_FEATURE=avx,avx2,fma` at build time), the panel tiles with [`ymm_panel`] reach
+//! 1.16–1.65× the crate, and 0.77–0.83× its AVX-512 kernel on the forward shapes
+//! (`results/speed/intel-2026-11-26-avx2-peer`).
 //!
 //! Generic over [`Real`]: the `f64` gradient checks run the same code.
 
@@ -184,6 +188,26 @@ pub fn gemm_then_with<T: Real, F: FnMut(usize, &mut [T])>(
     c: &mut [T],
     ldc: usize,
     init: Init<T>,
+    f: F,
+) {
+    run::<T, F, true>(kernel, m, kk, n, a, b, ldb, c, ldc, init, f);
+}
+
+/// [`gemm_then_with`], with the explicit-register tiles ([`zmm_tile`], [`ymm_panel`]) allowed
+/// (`SIMD`, as every caller outside the tests has it) or not (the portable loops alone, which
+/// the tests compare them with).
+#[allow(clippy::too_many_arguments)]
+fn run<T: Real, F: FnMut(usize, &mut [T]), const SIMD: bool>(
+    kernel: Kernel,
+    m: usize,
+    kk: usize,
+    n: usize,
+    a: Strided<T>,
+    b: &[T],
+    ldb: usize,
+    c: &mut [T],
+    ldc: usize,
+    init: Init<T>,
     mut f: F,
 ) {
     if m == 0 || n == 0 {
@@ -200,17 +224,23 @@ pub fn gemm_then_with<T: Real, F: FnMut(usize, &mut [T])>(
     }
     let f = &mut f;
     match (kernel, n) {
-        (Kernel::WideTiles, 64) => blocks::<T, F, 64, 64, 6, 0>(m, kk, a, b, ldb, c, ldc, init, f),
-        (Kernel::WideTiles, 32) => blocks::<T, F, 32, 32, 8, 0>(m, kk, a, b, ldb, c, ldc, init, f),
-        (Kernel::WideTiles, 16) => blocks::<T, F, 16, 16, 8, 0>(m, kk, a, b, ldb, c, ldc, init, f),
+        (Kernel::WideTiles, 64) => {
+            blocks::<T, F, 64, 64, 6, 0, SIMD>(m, kk, a, b, ldb, c, ldc, init, f)
+        }
+        (Kernel::WideTiles, 32) => {
+            blocks::<T, F, 32, 32, 8, 0, SIMD>(m, kk, a, b, ldb, c, ldc, init, f)
+        }
+        (Kernel::WideTiles, 16) => {
+            blocks::<T, F, 16, 16, 8, 0, SIMD>(m, kk, a, b, ldb, c, ldc, init, f)
+        }
         (Kernel::PanelTiles, 64) => {
-            blocks::<T, F, 64, 16, 6, PANEL_KC>(m, kk, a, b, ldb, c, ldc, init, f)
+            blocks::<T, F, 64, 16, 6, PANEL_KC, SIMD>(m, kk, a, b, ldb, c, ldc, init, f)
         }
         (Kernel::PanelTiles, 32) => {
-            blocks::<T, F, 32, 16, 6, PANEL_KC>(m, kk, a, b, ldb, c, ldc, init, f)
+            blocks::<T, F, 32, 16, 6, PANEL_KC, SIMD>(m, kk, a, b, ldb, c, ldc, init, f)
         }
         (Kernel::PanelTiles, 16) => {
-            blocks::<T, F, 16, 16, 6, PANEL_KC>(m, kk, a, b, ldb, c, ldc, init, f)
+            blocks::<T, F, 16, 16, 6, PANEL_KC, SIMD>(m, kk, a, b, ldb, c, ldc, init, f)
         }
         _ => {
             if let Init::Bias(bias) = init {
@@ -295,6 +325,7 @@ fn blocks<
     const P: usize,
     const R: usize,
     const KC: usize,
+    const SIMD: bool,
 >(
     m: usize,
     kk: usize,
@@ -307,7 +338,7 @@ fn blocks<
     f: &mut F,
 ) {
     if KC == 0 || kk <= KC {
-        row_blocks::<T, F, N, P, R>(m, kk, a, b, ldb, c, ldc, init, f);
+        row_blocks::<T, F, N, P, R, SIMD>(m, kk, a, b, ldb, c, ldc, init, f);
         return;
     }
     let mut k0 = 0;
@@ -321,10 +352,10 @@ fn blocks<
         let bk = &b[k0 * ldb..];
         let init_k = if k0 == 0 { init } else { Init::Accumulate };
         if k1 == kk {
-            row_blocks::<T, F, N, P, R>(m, k1 - k0, ak, bk, ldb, c, ldc, init_k, f);
+            row_blocks::<T, F, N, P, R, SIMD>(m, k1 - k0, ak, bk, ldb, c, ldc, init_k, f);
         } else {
             let mut none = |_: usize, _: &mut [T]| {};
-            row_blocks::<T, _, N, P, R>(m, k1 - k0, ak, bk, ldb, c, ldc, init_k, &mut none);
+            row_blocks::<T, _, N, P, R, SIMD>(m, k1 - k0, ak, bk, ldb, c, ldc, init_k, &mut none);
         }
         k0 = k1;
     }
@@ -338,6 +369,7 @@ fn row_blocks<
     const N: usize,
     const P: usize,
     const R: usize,
+    const SIMD: bool,
 >(
     m: usize,
     kk: usize,
@@ -351,7 +383,7 @@ fn row_blocks<
 ) {
     let mut i0 = 0;
     while i0 + R <= m {
-        tile::<T, F, N, P, R>(i0, kk, a, b, ldb, c, ldc, init, f);
+        tile::<T, F, N, P, R, SIMD>(i0, kk, a, b, ldb, c, ldc, init, f);
         i0 += R;
     }
     // Remaining rows, as few passes over B as possible.
@@ -360,10 +392,10 @@ fn row_blocks<
         ($($r:literal)*) => {
             match rest {
                 0 => {}
-                $($r if $r < R => tile::<T, F, N, P, $r>(i0, kk, a, b, ldb, c, ldc, init, f),)*
+                $($r if $r < R => tile::<T, F, N, P, $r, SIMD>(i0, kk, a, b, ldb, c, ldc, init, f),)*
                 _ => {
                     for i in i0..m {
-                        tile::<T, F, N, P, 1>(i, kk, a, b, ldb, c, ldc, init, f);
+                        tile::<T, F, N, P, 1, SIMD>(i, kk, a, b, ldb, c, ldc, init, f);
                     }
                 }
             }
@@ -378,7 +410,14 @@ fn row_blocks<
 /// then parked in an `R × N` stack buffer (L1), which the epilogue sees once every panel is done.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const P: usize, const R: usize>(
+fn tile<
+    T: Real,
+    F: FnMut(usize, &mut [T]),
+    const N: usize,
+    const P: usize,
+    const R: usize,
+    const SIMD: bool,
+>(
     i0: usize,
     kk: usize,
     a: Strided<T>,
@@ -409,9 +448,9 @@ fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const P: usize, cons
         assert!((i0 + R - 1) * a.rs + (kk - 1) * a.cs < a.data.len());
         assert!((kk - 1) * ldb + N <= b.len());
     }
-    if P == N && zmm_tile::<T, N, R>(i0, kk, a, b, ldb, &mut out) {
+    if P == N && SIMD && zmm_tile::<T, N, R>(i0, kk, a, b, ldb, &mut out) {
         // Done in explicit AVX-512 registers (`f32` on an AVX-512 build).
-    } else if P == N {
+    } else if P == N && !(SIMD && ymm_panel::<T, N, P, R>(i0, kk, a, b, ldb, 0, &mut out)) {
         // `out` itself is the register tile.
         for k in 0..kk {
             // SAFETY: `k·ldb + N ≤ b.len()` and `(i0+r)·rs + k·cs < a.len()` by the asserts.
@@ -423,8 +462,12 @@ fn tile<T: Real, F: FnMut(usize, &mut [T]), const N: usize, const P: usize, cons
                 }
             }
         }
-    } else {
+    } else if P < N {
         for p0 in (0..N).step_by(P) {
+            if SIMD && ymm_panel::<T, N, P, R>(i0, kk, a, b, ldb, p0, &mut out) {
+                // Done in explicit AVX2 registers (`f32` on an AVX2 + FMA build).
+                continue;
+            }
             let mut acc = [[T::ZERO; P]; R];
             for r in 0..R {
                 acc[r].copy_from_slice(&out[r][p0..p0 + P]);
@@ -525,6 +568,77 @@ fn zmm_tile<T: Real, const N: usize, const R: usize>(
         return true;
     }
     let _ = (i0, kk, a, b, ldb, out);
+    false
+}
+
+/// Columns `p0..p0 + 16` of [`tile`]'s `R × N` tile in explicit AVX2 registers when `T` is
+/// `f32`, `P` = 16, `R` ≤ 6 and the build has AVX2 and FMA: `2R` `ymm` accumulators (at most 12
+/// of the 16), the two `ymm` halves of a `B` row's panel and one broadcast; `false` (nothing
+/// done) otherwise. It starts from and ends in `out[r][p0..p0 + 16]`.
+///
+/// Why not leave it to the compiler: the portable panel loop compiles to slower code on the
+/// forward shapes. Measured with `NEUS_AUG_BENCH_MLP_ONLY=1` on an Intel Xeon (family 6 model
+/// 167, `x86-64-v3` build, one thread, two rounds): `[3584 × 35] → 64` at 83.5–84.2 GFLOP/s with
+/// the portable loop, 90.5–91.7 with this one, `matrixmultiply`'s AVX2 kernel 77.5–78.1; the
+/// other forward shapes gain 5–10 % too (`results/speed/intel-2026-11-26-avx2-peer`). Not
+/// measured on AMD.
+///
+/// The sums are the portable loop's, term for term (one fused multiply-add per term, `k` in
+/// order), so the results are bit-identical to it (tested).
+#[inline(always)]
+fn ymm_panel<T: Real, const N: usize, const P: usize, const R: usize>(
+    i0: usize,
+    kk: usize,
+    a: Strided<T>,
+    b: &[T],
+    ldb: usize,
+    p0: usize,
+    out: &mut [[T; N]; R],
+) -> bool {
+    #[cfg(all(
+        target_arch = "x86_64",
+        target_feature = "avx2",
+        target_feature = "fma"
+    ))]
+    if std::any::TypeId::of::<T>() == std::any::TypeId::of::<f32>() && P == 16 && R <= 6 {
+        use std::arch::x86_64::*;
+        assert!(p0 + 16 <= N);
+        // SAFETY: `T` is `f32` (same type, so same size and layout); the slices keep their
+        // lengths and `out` its shape.
+        let (ad, bd, out) = unsafe {
+            (
+                std::slice::from_raw_parts(a.data.as_ptr().cast::<f32>(), a.data.len()),
+                std::slice::from_raw_parts(b.as_ptr().cast::<f32>(), b.len()),
+                &mut *(out as *mut [[T; N]; R]).cast::<[[f32; N]; R]>(),
+            )
+        };
+        // SAFETY: AVX2 and FMA are enabled for the whole build (the `cfg` above). Every load and
+        // store stays inside `out` (`p0 + 16 ≤ N`, asserted) or inside the extents [`tile`]
+        // asserted before calling: `(i0 + r)·rs + k·cs < a.len()` and `k·ldb + N ≤ b.len()` for
+        // `k < kk`.
+        unsafe {
+            let mut acc = [[_mm256_setzero_ps(); 2]; R];
+            for r in 0..R {
+                acc[r][0] = _mm256_loadu_ps(out[r].as_ptr().add(p0));
+                acc[r][1] = _mm256_loadu_ps(out[r].as_ptr().add(p0 + 8));
+            }
+            for k in 0..kk {
+                let brow = bd.as_ptr().add(k * ldb + p0);
+                let (b0, b1) = (_mm256_loadu_ps(brow), _mm256_loadu_ps(brow.add(8)));
+                for r in 0..R {
+                    let x = _mm256_set1_ps(*ad.get_unchecked((i0 + r) * a.rs + k * a.cs));
+                    acc[r][0] = _mm256_fmadd_ps(x, b0, acc[r][0]);
+                    acc[r][1] = _mm256_fmadd_ps(x, b1, acc[r][1]);
+                }
+            }
+            for r in 0..R {
+                _mm256_storeu_ps(out[r].as_mut_ptr().add(p0), acc[r][0]);
+                _mm256_storeu_ps(out[r].as_mut_ptr().add(p0 + 8), acc[r][1]);
+            }
+        }
+        return true;
+    }
+    let _ = (i0, kk, a, b, ldb, p0, out);
     false
 }
 
@@ -720,9 +834,10 @@ mod tests {
 
     /// The two register kernels add the same terms in the same order with one fused
     /// multiply-add each, so in `f32` they agree bit for bit, whichever of them runs in explicit
-    /// AVX-512 registers ([`zmm_tile`] on AVX-512 builds) and whichever the compiler vectorised.
-    /// On AVX-512 builds the widths 32 and 64 compare [`zmm_tile`] with the compiler's 16-wide
-    /// panels; at width 16 the panel is the whole tile, so both kernels take [`zmm_tile`] there.
+    /// registers and whichever the compiler vectorised. On AVX-512 builds the widths 32 and 64
+    /// compare [`zmm_tile`] with [`ymm_panel`]; at width 16 the panel is the whole tile, so both
+    /// kernels take [`zmm_tile`] there. On AVX2 builds [`ymm_panel`] meets the compiler's spilled
+    /// wide tiles.
     #[test]
     fn register_kernels_agree_bit_for_bit_in_f32() {
         let mut rng = Pcg64Mcg::seed_from_u64(33);
@@ -750,6 +865,64 @@ mod tests {
         }
     }
 
+    /// The explicit-register tiles ([`zmm_tile`] on AVX-512 builds, [`ymm_panel`] on AVX2 + FMA
+    /// builds) against the portable loops they replace, kernel by kernel, in `f32`: bit for bit,
+    /// with an epilogue, every width, orientation, [`Init`] and row remainder of [`SHAPES`] (on
+    /// builds without those ISAs both sides run the portable loops).
+    #[test]
+    fn explicit_registers_agree_bit_for_bit_with_portable_loops() {
+        let mut rng = Pcg64Mcg::seed_from_u64(34);
+        for kernel in [Kernel::WideTiles, Kernel::PanelTiles] {
+            for &(m, kk, n) in &SHAPES {
+                for transposed in [false, true] {
+                    for init_kind in 0..3 {
+                        let (a, b, c0, bias) = operands::<f32>(&mut rng, m, kk, n);
+                        let (sa, init) =
+                            (a_operand(&a, m, kk, transposed), init_of(init_kind, &bias));
+                        let epilogue = |_: usize, row: &mut [f32]| {
+                            for v in row.iter_mut() {
+                                *v = v.max(0.25);
+                            }
+                        };
+                        let (mut fast, mut portable) = (c0.clone(), c0.clone());
+                        run::<f32, _, true>(
+                            kernel,
+                            m,
+                            kk,
+                            n,
+                            sa,
+                            &b,
+                            n + 3,
+                            &mut fast,
+                            n + 2,
+                            init,
+                            epilogue,
+                        );
+                        run::<f32, _, false>(
+                            kernel,
+                            m,
+                            kk,
+                            n,
+                            sa,
+                            &b,
+                            n + 3,
+                            &mut portable,
+                            n + 2,
+                            init,
+                            epilogue,
+                        );
+                        assert!(
+                            fast.iter()
+                                .zip(&portable)
+                                .all(|(x, y)| x.to_bits() == y.to_bits()),
+                            "{kernel:?}: m {m}, k {kk}, n {n}, transposed {transposed}, init {init_kind}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
     /// Cutting the sum over `k` into chunks changes no bit: every output adds its terms in the
     /// same order with the same roundings, whatever the chunk (here against one chunk, in `f32`
     /// where a reordered sum would show), on the weight gradient's transposed operand.
@@ -766,7 +939,7 @@ mod tests {
             let mut c = c0.to_vec();
             let mut none = |_: usize, _: &mut [f32]| {};
             let (ldb, ldc) = (64 + 3, 64 + 2);
-            blocks::<f32, _, 64, 16, 6, KC>(
+            blocks::<f32, _, 64, 16, 6, KC, true>(
                 m,
                 kk,
                 a,
