@@ -14,7 +14,7 @@
 //! | build | [`Kernel`] | why |
 //! |---|---|---|
 //! | x86-64 with AVX-512 (`target-cpu=native` on Zen 4, Skylake-X, …) | [`Kernel::WideTiles`] | the whole `6 × 64` (`8 × 32`, `8 × 16`) tile in 24–32 of the 32 `zmm` registers; for `f32` through explicit intrinsics (`zmm_tile`), since LLVM's Intel tuning would otherwise vectorise it 256 bits wide |
-//! | x86-64 with AVX2 + FMA, no AVX-512 (Zen 2/3, Haswell … Alder Lake, `x86-64-v3`) | [`Kernel::PanelTiles`] | the wide tiles need 48 `ymm` accumulators for `N` = 64 and spill; `6 × 16` panels use 12 of the 16, and sums longer than [`PANEL_KC`] go in `k` chunks that stay in L1 |
+//! | x86-64 with AVX2 + FMA, no AVX-512 (Zen 2/3, Haswell … Alder Lake, `x86-64-v3`) | [`Kernel::PanelTiles`] | the wide tiles need 48 `ymm` accumulators for `N` = 64 and spill; `6 × 16` panels use 12 of the 16 (for `f32` through explicit intrinsics, `ymm_panel`), and sums longer than [`PANEL_KC`] go in `k` chunks that stay in L1 |
 //! | anything else (`x86-64-v2`, no target flags, aarch64, …) | [`Kernel::MatrixMultiply`] | `matrixmultiply` picks its own kernel at run time (AVX-512, AVX2+FMA, AVX, SSE2, NEON), so a portable binary still gets the CPU's vector units; portable Rust compiled for SSE2 or unmeasured NEON would not do better |
 //!
 //! Widths other than 16/32/64 always go to `matrixmultiply` ([`Real::gemm`]), which is also the
@@ -32,7 +32,7 @@
 //! `zmm_tile`. `matrixmultiply` chooses its kernel at run time, so the `x86-64-v3` figures above,
 //! taken on AVX-512 CPUs, compare with its AVX-512 kernel, not the AVX2 one that AVX2-only CPUs
 //! get. On the same Xeon, `x86-64-v3` build, with the crate held to its AVX2 kernel
-//! (`MMTEST_FEATURE=avx,avx2,fma` at build time), the panel tiles with [`ymm_panel`] reach
+//! (`MMTEST_FEATURE=avx,avx2,fma` at build time), the panel tiles with `ymm_panel` reach
 //! 1.16–1.65× the crate, and 0.77–0.83× its AVX-512 kernel on the forward shapes
 //! (`results/speed/intel-2026-11-26-avx2-peer`).
 //!
