@@ -688,9 +688,65 @@ mod tests {
         init: Init<T>,
         f: impl FnMut(usize, &mut [T]),
     ) -> Vec<T> {
+        through_as::<T, true>(kernel, m, kk, n, sa, b, c0, init, f)
+    }
+
+    /// [`through`], with the explicit-register tiles allowed (`SIMD`) or not (the portable
+    /// loops alone).
+    #[allow(clippy::too_many_arguments)]
+    fn through_as<T: Real, const SIMD: bool>(
+        kernel: Kernel,
+        m: usize,
+        kk: usize,
+        n: usize,
+        sa: Strided<T>,
+        b: &[T],
+        c0: &[T],
+        init: Init<T>,
+        f: impl FnMut(usize, &mut [T]),
+    ) -> Vec<T> {
         let mut c = c0.to_vec();
-        gemm_then_with(kernel, m, kk, n, sa, b, n + 3, &mut c, n + 2, init, f);
+        run::<T, _, SIMD>(kernel, m, kk, n, sa, b, n + 3, &mut c, n + 2, init, f);
         c
+    }
+
+    /// Every `f32` case of the bit-for-bit tests, from `seed`: each of [`SHAPES`] in both
+    /// orientations with each [`Init`]. `check` gets the case's label and `run(kernel, simd)`,
+    /// which returns `C` through that kernel (explicit registers allowed or not) with an epilogue
+    /// that clamps from below, so the epilogue's place in the kernel is compared too.
+    fn for_each_f32_case(
+        seed: u64,
+        mut check: impl FnMut(&str, &dyn Fn(Kernel, bool) -> Vec<f32>),
+    ) {
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        for &(m, kk, n) in &SHAPES {
+            for transposed in [false, true] {
+                for init_kind in 0..3 {
+                    let (a, b, c0, bias) = operands::<f32>(&mut rng, m, kk, n);
+                    let (sa, init) = (a_operand(&a, m, kk, transposed), init_of(init_kind, &bias));
+                    let clamp = |_: usize, row: &mut [f32]| {
+                        for v in row.iter_mut() {
+                            *v = v.max(0.25);
+                        }
+                    };
+                    let run = |kernel: Kernel, simd: bool| {
+                        if simd {
+                            through_as::<f32, true>(kernel, m, kk, n, sa, &b, &c0, init, clamp)
+                        } else {
+                            through_as::<f32, false>(kernel, m, kk, n, sa, &b, &c0, init, clamp)
+                        }
+                    };
+                    let case =
+                        format!("m {m}, k {kk}, n {n}, transposed {transposed}, init {init_kind}");
+                    check(&case, &run);
+                }
+            }
+        }
+    }
+
+    /// Whether two results are the same floats, bit for bit.
+    fn same_bits(x: &[f32], y: &[f32]) -> bool {
+        x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
     }
 
     /// [`Init`] number `kind`: 0 zero, 1 accumulate, otherwise the bias row.
@@ -840,29 +896,10 @@ mod tests {
     /// wide tiles.
     #[test]
     fn register_kernels_agree_bit_for_bit_in_f32() {
-        let mut rng = Pcg64Mcg::seed_from_u64(33);
-        for &(m, kk, n) in &SHAPES {
-            for transposed in [false, true] {
-                for init_kind in 0..3 {
-                    let (a, b, c0, bias) = operands::<f32>(&mut rng, m, kk, n);
-                    let (sa, init) = (a_operand(&a, m, kk, transposed), init_of(init_kind, &bias));
-                    let run = |kernel: Kernel| {
-                        through(kernel, m, kk, n, sa, &b, &c0, init, |_, row| {
-                            for v in row.iter_mut() {
-                                *v = v.max(0.25);
-                            }
-                        })
-                    };
-                    let (wide, panel) = (run(Kernel::WideTiles), run(Kernel::PanelTiles));
-                    assert!(
-                        wide.iter()
-                            .zip(&panel)
-                            .all(|(x, y)| x.to_bits() == y.to_bits()),
-                        "m {m}, k {kk}, n {n}, transposed {transposed}, init {init_kind}"
-                    );
-                }
-            }
-        }
+        for_each_f32_case(33, |case, run| {
+            let (wide, panel) = (run(Kernel::WideTiles, true), run(Kernel::PanelTiles, true));
+            assert!(same_bits(&wide, &panel), "{case}");
+        });
     }
 
     /// The explicit-register tiles ([`zmm_tile`] on AVX-512 builds, [`ymm_panel`] on AVX2 + FMA
@@ -871,56 +908,12 @@ mod tests {
     /// builds without those ISAs both sides run the portable loops).
     #[test]
     fn explicit_registers_agree_bit_for_bit_with_portable_loops() {
-        let mut rng = Pcg64Mcg::seed_from_u64(34);
-        for kernel in [Kernel::WideTiles, Kernel::PanelTiles] {
-            for &(m, kk, n) in &SHAPES {
-                for transposed in [false, true] {
-                    for init_kind in 0..3 {
-                        let (a, b, c0, bias) = operands::<f32>(&mut rng, m, kk, n);
-                        let (sa, init) =
-                            (a_operand(&a, m, kk, transposed), init_of(init_kind, &bias));
-                        let epilogue = |_: usize, row: &mut [f32]| {
-                            for v in row.iter_mut() {
-                                *v = v.max(0.25);
-                            }
-                        };
-                        let (mut fast, mut portable) = (c0.clone(), c0.clone());
-                        run::<f32, _, true>(
-                            kernel,
-                            m,
-                            kk,
-                            n,
-                            sa,
-                            &b,
-                            n + 3,
-                            &mut fast,
-                            n + 2,
-                            init,
-                            epilogue,
-                        );
-                        run::<f32, _, false>(
-                            kernel,
-                            m,
-                            kk,
-                            n,
-                            sa,
-                            &b,
-                            n + 3,
-                            &mut portable,
-                            n + 2,
-                            init,
-                            epilogue,
-                        );
-                        assert!(
-                            fast.iter()
-                                .zip(&portable)
-                                .all(|(x, y)| x.to_bits() == y.to_bits()),
-                            "{kernel:?}: m {m}, k {kk}, n {n}, transposed {transposed}, init {init_kind}"
-                        );
-                    }
-                }
+        for_each_f32_case(34, |case, run| {
+            for kernel in [Kernel::WideTiles, Kernel::PanelTiles] {
+                let (fast, portable) = (run(kernel, true), run(kernel, false));
+                assert!(same_bits(&fast, &portable), "{kernel:?}: {case}");
             }
-        }
+        });
     }
 
     /// Cutting the sum over `k` into chunks changes no bit: every output adds its terms in the
