@@ -142,6 +142,44 @@ fn background_gradient_matches_central_differences() {
     assert_eq!(out.n_valid_rays, out.n_rays, "{out:?}");
 }
 
+/// The colour network's own hash grid (`field.color_grid`, issue 13): its table joins the check
+/// as the group `color_grid`, fed at every sample centre, with the xyz prefix on (it has no
+/// parameters but widens the colour input). Progressive geometry levels at the same time: the
+/// colour grid keeps all of its levels.
+#[test]
+fn color_grid_gradient_matches_central_differences() {
+    use neus_aug::field::config::{ColorGridConfig, HashGridConfig, ProgressiveConfig};
+    let mut cfg = tiny_config();
+    cfg.field.color_grid = ColorGridConfig {
+        enabled: true,
+        grid: HashGridConfig {
+            n_levels: 3,
+            n_features_per_level: 2,
+            log2_hashmap_size: 6,
+            base_resolution: 3.0,
+            per_level_scale: 2.0,
+            include_xyz: true,
+            ..Default::default()
+        },
+    };
+    cfg.field.hash_grid.progressive = Some(ProgressiveConfig {
+        start_level: 2,
+        start_step: 0,
+        update_steps: 1000,
+    });
+    let model = NeusModel::new(cfg).unwrap();
+    let g = model
+        .layout
+        .group("color_grid")
+        .expect("the colour grid's group");
+    assert_eq!(g.shape, [model.color_grid.as_ref().unwrap().n_entries, 2]);
+    assert_eq!(
+        model.color_mlp.dims[0],
+        tiny_config().field.color_input_dim() + 3 + 3 * 2
+    );
+    check_full_gradient(model.config.clone());
+}
+
 /// Coarse-to-fine levels (2 of the tiny grid's 6 active at the checked step): the inactive
 /// levels contribute nothing, the finite-difference epsilon follows the finest active level, and
 /// the gradient (curvature term included) still matches central differences.

@@ -11,15 +11,17 @@ use serde::{Deserialize, Serialize};
 pub enum ConfigError {
     #[error("field config: `{key}` = {value} is invalid: {why}")]
     Invalid {
-        key: &'static str,
+        /// The key under the field config, e.g. `hash_grid.n_levels` or
+        /// `color_grid.grid.n_levels`.
+        key: String,
         value: String,
         why: &'static str,
     },
 }
 
-fn invalid(key: &'static str, value: impl ToString, why: &'static str) -> ConfigError {
+fn invalid(key: impl Into<String>, value: impl ToString, why: &'static str) -> ConfigError {
     ConfigError::Invalid {
-        key,
+        key: key.into(),
         value: value.to_string(),
         why,
     }
@@ -88,6 +90,67 @@ impl Default for HashGridConfig {
 }
 
 impl HashGridConfig {
+    /// Checks sizes; errors name the key as `prefix.<field>` (the config path of this grid).
+    pub fn validate(&self, prefix: &str) -> Result<(), ConfigError> {
+        let h = self;
+        let k = |name: &str| format!("{prefix}.{name}");
+        if h.n_levels == 0 || h.n_levels > 32 {
+            return Err(invalid(k("n_levels"), h.n_levels, "must be in 1..=32"));
+        }
+        if h.n_features_per_level == 0 || h.n_features_per_level > 8 {
+            return Err(invalid(
+                k("n_features_per_level"),
+                h.n_features_per_level,
+                "must be in 1..=8",
+            ));
+        }
+        if !(4..=26).contains(&h.log2_hashmap_size) {
+            return Err(invalid(
+                k("log2_hashmap_size"),
+                h.log2_hashmap_size,
+                "must be in 4..=26",
+            ));
+        }
+        if !(h.base_resolution >= 2.0 && h.base_resolution.is_finite()) {
+            return Err(invalid(
+                k("base_resolution"),
+                h.base_resolution,
+                "must be finite and >= 2",
+            ));
+        }
+        if !(h.per_level_scale >= 1.0 && h.per_level_scale.is_finite()) {
+            return Err(invalid(
+                k("per_level_scale"),
+                h.per_level_scale,
+                "must be finite and >= 1",
+            ));
+        }
+        let finest = h.base_resolution * h.per_level_scale.powi(h.n_levels as i32 - 1);
+        if finest > 1.0e6 {
+            return Err(invalid(
+                k("per_level_scale"),
+                h.per_level_scale,
+                "finest resolution above 1e6",
+            ));
+        }
+        if !(h.init_range >= 0.0 && h.init_range.is_finite()) {
+            return Err(invalid(k("init_range"), h.init_range, "must be >= 0"));
+        }
+        if let Some(p) = &h.progressive {
+            if p.start_level == 0 || p.start_level > h.n_levels {
+                return Err(invalid(
+                    k("progressive.start_level"),
+                    p.start_level,
+                    "must be in 1..=n_levels",
+                ));
+            }
+            if p.update_steps == 0 {
+                return Err(invalid(k("progressive.update_steps"), 0, "must be > 0"));
+            }
+        }
+        Ok(())
+    }
+
     /// Number of active levels at training step `step` (all levels without a progressive
     /// schedule). Pass the result explicitly to the model; nothing keeps schedule state.
     pub fn active_levels(&self, step: u64) -> usize {
@@ -176,6 +239,42 @@ impl Default for AppearanceConfig {
     }
 }
 
+/// A second hash grid that feeds only the colour network (off by default): its encoding of the
+/// sample position is appended to the colour input, so the texture can live in entries of its
+/// own instead of the geometry grid's (issue 13: on `cup`, fitting the texture through the shared
+/// entries moved the walls; `results/geometry/cup-resolution-warmup-2026-11-26`). NeuS
+/// (`models/fields.py`, `RenderingNetwork` takes the SDF network's feature vector),
+/// instant-nsr-pl (`models/neus.py`) and Neuralangelo all read the colour features from the
+/// geometry's network; this grid is an addition of this project, not a reference convention.
+/// The colour loss's gradient still reaches the geometry through the SDF features, the normal
+/// and the density.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ColorGridConfig {
+    /// Build the grid and feed it to the colour network (false).
+    pub enabled: bool,
+    /// Its shape: 12 levels of 2 features, `T = 2^15`, base resolution 16, the geometry grid's
+    /// growth factor (finest level 338, about the texture's detail at 400 × 300), no xyz
+    /// prefix; `progressive` must stay unset. Sized for cost: it adds 0.66 M parameters to
+    /// `fast`'s 2.04 M and about 30 % to its step time (results/geometry/cup-color-grid-2026-11-27).
+    pub grid: HashGridConfig,
+}
+
+impl Default for ColorGridConfig {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            grid: HashGridConfig {
+                n_levels: 12,
+                log2_hashmap_size: 15,
+                base_resolution: 16.0,
+                include_xyz: false,
+                ..HashGridConfig::default()
+            },
+        }
+    }
+}
+
 /// Everything that shapes the field's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -184,75 +283,21 @@ pub struct FieldConfig {
     pub sdf: SdfMlpConfig,
     pub color: ColorMlpConfig,
     pub appearance: AppearanceConfig,
+    pub color_grid: ColorGridConfig,
 }
 
 impl FieldConfig {
     /// Checks sizes; the error names the key and value.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let h = &self.hash_grid;
-        if h.n_levels == 0 || h.n_levels > 32 {
-            return Err(invalid(
-                "hash_grid.n_levels",
-                h.n_levels,
-                "must be in 1..=32",
-            ));
-        }
-        if h.n_features_per_level == 0 || h.n_features_per_level > 8 {
-            return Err(invalid(
-                "hash_grid.n_features_per_level",
-                h.n_features_per_level,
-                "must be in 1..=8",
-            ));
-        }
-        if !(4..=26).contains(&h.log2_hashmap_size) {
-            return Err(invalid(
-                "hash_grid.log2_hashmap_size",
-                h.log2_hashmap_size,
-                "must be in 4..=26",
-            ));
-        }
-        if !(h.base_resolution >= 2.0 && h.base_resolution.is_finite()) {
-            return Err(invalid(
-                "hash_grid.base_resolution",
-                h.base_resolution,
-                "must be finite and >= 2",
-            ));
-        }
-        if !(h.per_level_scale >= 1.0 && h.per_level_scale.is_finite()) {
-            return Err(invalid(
-                "hash_grid.per_level_scale",
-                h.per_level_scale,
-                "must be finite and >= 1",
-            ));
-        }
-        let finest = h.base_resolution * h.per_level_scale.powi(h.n_levels as i32 - 1);
-        if finest > 1.0e6 {
-            return Err(invalid(
-                "hash_grid.per_level_scale",
-                h.per_level_scale,
-                "finest resolution above 1e6",
-            ));
-        }
-        if !(h.init_range >= 0.0 && h.init_range.is_finite()) {
-            return Err(invalid(
-                "hash_grid.init_range",
-                h.init_range,
-                "must be >= 0",
-            ));
-        }
-        if let Some(p) = &h.progressive {
-            if p.start_level == 0 || p.start_level > h.n_levels {
+        self.hash_grid.validate("hash_grid")?;
+        let cg = &self.color_grid;
+        if cg.enabled {
+            cg.grid.validate("color_grid.grid")?;
+            if cg.grid.progressive.is_some() {
                 return Err(invalid(
-                    "hash_grid.progressive.start_level",
-                    p.start_level,
-                    "must be in 1..=n_levels",
-                ));
-            }
-            if p.update_steps == 0 {
-                return Err(invalid(
-                    "hash_grid.progressive.update_steps",
-                    0,
-                    "must be > 0",
+                    "color_grid.grid.progressive",
+                    "set",
+                    "the colour grid has no coarse-to-fine schedule (all its levels are always active)",
                 ));
             }
         }
@@ -313,8 +358,24 @@ impl FieldConfig {
         }
     }
 
-    /// Width of the colour-MLP input: `feature_dim + 16 + 3 + appearance_dim`.
+    /// Width of the colour grid's part of the colour input: `3·include_xyz + L·F` when
+    /// enabled, else 0.
+    pub fn color_grid_dim(&self) -> usize {
+        let g = &self.color_grid;
+        if g.enabled {
+            3 * usize::from(g.grid.include_xyz) + g.grid.n_levels * g.grid.n_features_per_level
+        } else {
+            0
+        }
+    }
+
+    /// Width of the colour-MLP input: `feature_dim + 16 + 3 + appearance_dim + color_grid_dim`
+    /// (in that order).
     pub fn color_input_dim(&self) -> usize {
-        self.sdf.feature_dim + crate::field::sh::SH_DIM + 3 + self.appearance_dim()
+        self.sdf.feature_dim
+            + crate::field::sh::SH_DIM
+            + 3
+            + self.appearance_dim()
+            + self.color_grid_dim()
     }
 }

@@ -33,8 +33,8 @@ use super::rays::{march_rays, RaySamples};
 use super::schedule::Schedule;
 use super::step::{StepCtx, Sums};
 use super::workspace::{
-    group, split, split_mut, Scratch, WorkspaceCache, APPEARANCE, BG_COLOR, BG_DENSITY, COLOR_MLP,
-    HASH_GRID, SDF_MLP, VARIANCE,
+    group, split, split_mut, Scratch, WorkspaceCache, APPEARANCE, BG_COLOR, BG_DENSITY, COLOR_GRID,
+    COLOR_MLP, HASH_GRID, SDF_MLP, VARIANCE,
 };
 use crate::field::config::ConfigError;
 use crate::field::mlp::MlpTape;
@@ -157,9 +157,11 @@ pub struct NeusModel {
     pub grid: HashGrid,
     pub sdf_mlp: Mlp,
     pub color_mlp: Mlp,
-    /// Groups in this order: `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`, and
-    /// with a learned background `bg_density`, `bg_color`.
+    /// Groups in this order: `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`,
+    /// with a learned background `bg_density`, `bg_color`, and with a colour grid `color_grid`.
     pub layout: ParamLayout,
+    /// The colour network's own hash grid (`field.color_grid`; `None` when off).
+    pub color_grid: Option<HashGrid>,
     /// The learned background's networks (`None` when `config.background` is off).
     pub background: Option<BackgroundField>,
     /// Buffers [`NeusModel::forward_backward`] reuses between calls (see [`WorkspaceCache`]).
@@ -259,12 +261,20 @@ impl NeusModel {
             layout.push(BG_DENSITY, vec![bg.density.n_params()], 1.0);
             layout.push(BG_COLOR, vec![bg.color.n_params()], 1.0);
         }
+        let color_grid = f
+            .color_grid
+            .enabled
+            .then(|| HashGrid::new(&f.color_grid.grid));
+        if let Some(cg) = &color_grid {
+            layout.push(COLOR_GRID, vec![cg.n_entries, cg.n_features], 1.0);
+        }
         Ok(Self {
             config,
             grid,
             sdf_mlp,
             color_mlp,
             layout,
+            color_grid,
             background,
             workspace: WorkspaceCache::default(),
         })
@@ -277,8 +287,10 @@ impl NeusModel {
 
     /// Seeded initial parameters: hash table `U(±1e-4)`, SDF MLP sphere init (or Kaiming),
     /// colour MLP Kaiming-uniform with zero biases, `v = variance_init`, appearance table zeros,
-    /// background networks (when on) Kaiming-uniform with zero biases, drawn after the others so
-    /// that the other groups start the same with or without a background.
+    /// background networks (when on) Kaiming-uniform with zero biases, then the colour grid (when
+    /// on) like the hash table. The optional groups are drawn last, so the geometry (hash grid,
+    /// SDF MLP, variance) starts the same with or without them; the colour MLP's first layer is
+    /// wider with the colour grid, so it starts differently.
     pub fn init_params(&self, seed: u64) -> Vec<f32> {
         let mut p = vec![0f32; self.n_params()];
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
@@ -297,6 +309,9 @@ impl NeusModel {
         if let Some(bg) = &self.background {
             bg.density.init_kaiming(g.bg_density, &mut rng);
             bg.color.init_kaiming(g.bg_color, &mut rng);
+        }
+        if let Some(cg) = &self.color_grid {
+            cg.init(g.cgrid, &mut rng);
         }
         p
     }
@@ -798,6 +813,45 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("with_scalar"));
+    }
+
+    /// The colour grid (`field.color_grid`): its group comes last, the geometry's groups start
+    /// with the values they have without it, the colour input widens by its `L·F`, and its bad
+    /// sizes are refused under their own key.
+    #[test]
+    fn color_grid_layout_and_validation() {
+        let plain = NeusModel::new(ModelConfig::default()).unwrap();
+        let mut c = ModelConfig::default();
+        c.field.color_grid.enabled = true;
+        let m = NeusModel::new(c.clone()).unwrap();
+        let g = m.layout.groups.last().unwrap();
+        assert_eq!(g.name, "color_grid");
+        let cg = m.color_grid.as_ref().unwrap();
+        assert_eq!(g.shape, [cg.n_entries, 2]);
+        assert_eq!(m.color_mlp.dims[0], 13 + 16 + 3 + 12 * 2);
+        let (p0, p1) = (plain.init_params(5), m.init_params(5));
+        for name in ["hash_grid", "sdf_mlp", "variance", "appearance"] {
+            let (a, b) = (plain.layout.group(name), m.layout.group(name));
+            assert!(
+                p0[a.unwrap().range()] == p1[b.unwrap().range()],
+                "{name} starts as without the colour grid"
+            );
+        }
+        let r = m.init_params(5)[g.range()].to_vec();
+        assert!(r.iter().all(|v| v.abs() <= 1e-4) && r.iter().any(|&v| v != 0.0));
+
+        let mut bad = c.clone();
+        bad.field.color_grid.grid.n_levels = 0;
+        let e = NeusModel::new(bad).unwrap_err().to_string();
+        assert!(e.contains("`color_grid.grid.n_levels` = 0"), "{e}");
+        let mut bad = c;
+        bad.field.color_grid.grid.progressive = Some(Default::default());
+        let e = NeusModel::new(bad).unwrap_err().to_string();
+        assert!(e.contains("color_grid.grid.progressive"), "{e}");
+        // Off, its sizes are not looked at.
+        let mut off = ModelConfig::default();
+        off.field.color_grid.grid.n_levels = 0;
+        assert!(NeusModel::new(off).unwrap().color_grid.is_none());
     }
 
     /// `sdf` (batched level-parallel encoding, register-kernel MLP, fused output channel)

@@ -5,9 +5,9 @@
 //! |---|---|---|
 //! | positions, taps, hash encoding | [`NeusModel::encode_forward`] | `encode_fwd` |
 //! | SDF network on centres and taps | [`NeusModel::sdf_forward`] | `sdf_mlp_fwd` |
-//! | gradients, normals, colour network | [`NeusModel::color_forward`] | `color_fwd` |
+//! | gradients, normals, colour grid, colour network | [`NeusModel::color_forward`] | `color_fwd` |
 //! | alpha, compositing (+ loss, compositing backward) | [`NeusModel::alpha_forward`], [`NeusModel::composite_render`] / [`NeusModel::composite_loss_backward`] | `render` |
-//! | colour network backward | [`NeusModel::color_backward`] | `color_bwd` |
+//! | colour network backward (and the colour grid's) | [`NeusModel::color_backward`] | `color_bwd` |
 //! | alpha / normal / eikonal / curvature backward, SDF network backward | [`NeusModel::geometry_backward`], [`NeusModel::sdf_backward`] | `sdf_mlp_bwd` |
 //! | hash grid backward | [`NeusModel::encode_backward`] | `encode_bwd` |
 //!
@@ -75,6 +75,8 @@ struct Chunk<'a, T> {
     wh: usize,
     /// Colour network input width.
     dc: usize,
+    /// The colour grid's width at the end of each colour input row (0 without one).
+    dg: usize,
     app: &'a AppearanceConfig,
     radius: T,
     active: usize,
@@ -140,6 +142,7 @@ impl NeusModel {
             d: self.grid.output_dim(),
             wh: self.sdf_mlp.last_hidden_dim(),
             dc: cfgf.color_input_dim(),
+            dg: cfgf.color_grid_dim(),
             app: &cfgf.appearance,
             radius: T::from_f32(self.config.render.radius),
             active,
@@ -452,6 +455,18 @@ impl NeusModel {
                 i += 1;
             }
         }
+        if let Some(cg) = &self.color_grid {
+            // All levels, always: the colour grid has no coarse-to-fine schedule.
+            let g0 = dc - c.dg;
+            cg.encode_batch(
+                p.cgrid,
+                &sc.points,
+                c.radius,
+                cg.levels.len(),
+                &mut sc.color_in[g0..],
+                dc,
+            );
+        }
         self.color_mlp
             .forward_hidden(p.color, &sc.color_in, n, &mut sc.color_tape);
         sc.color_logits.resize(n * 3, T::ZERO);
@@ -630,7 +645,8 @@ impl NeusModel {
         }
     }
 
-    /// The colour network's backward: parameter gradients into `g.color`, `d_color_in`.
+    /// The colour network's backward: parameter gradients into `g.color` (and the colour grid's
+    /// into `g.cgrid`), `d_color_in`.
     #[inline]
     fn color_backward<T: Real>(
         &self,
@@ -672,6 +688,13 @@ impl NeusModel {
             &mut sc.mlp_work,
             Some(&mut sc.d_color_in),
         );
+        if let Some(cg) = &self.color_grid {
+            let g0 = dc - c.dg;
+            for i in 0..n {
+                let d_row = &sc.d_color_in[i * dc + g0..(i + 1) * dc];
+                cg.encode_backward(sc.points[i], c.radius, cg.levels.len(), d_row, g.cgrid);
+            }
+        }
     }
 
     /// Alpha, normal, eikonal and curvature backward to the SDF outputs (`d_sdf_feature`) and
