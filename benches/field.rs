@@ -34,6 +34,8 @@
 //! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
 //! `NEUS_AUG_BENCH_QUICK=1` runs only the FMA peak and the default network's iteration;
 //! `NEUS_AUG_BENCH_MLP_ONLY=1` stops after the MLP products and the SDF layer's parts (0–2);
+//! `NEUS_AUG_BENCH_COLOR_GRID=1` runs only the `fast` network's iteration with and without the
+//! colour grid (`field.color_grid`), twice, and prints their ratio (with `QUICK`: after 0–1);
 //! `NEUS_AUG_CHUNK` overrides `chunk_samples`, `NEUS_AUG_BENCH_FD_EVERY` the main measurement's
 //! `render.fd_central_every`, `NEUS_AUG_BENCH_FD_SPAN` its and the one-sided pairs'
 //! `render.fd_one_sided_span` (default: the `fast` preset's, 2: taps two cells out); both apply to
@@ -1067,6 +1069,39 @@ fn fd_sides(peak: f64, secs: f64) {
     }
 }
 
+/// The colour network's own hash grid (`field.color_grid`, opt-in; issue 13) against none, on the
+/// `fast` preset's network, tap layout and ray cap: two rounds of the pair back to back, each
+/// iteration including AdamW over the larger parameter buffer.
+fn color_grid_cost(peak: f64, secs: f64) {
+    let mut ratios = Vec::new();
+    for round in 0..2 {
+        let mut rates = [(0.0, 0.0); 2];
+        for (j, on) in [false, true].into_iter().enumerate() {
+            let mut cfg = neus_aug::reconstruct::Preset::Fast.config().model;
+            cfg.field.color_grid.enabled = on;
+            let (m, mut p, o, _) = setup(cfg);
+            let st = train_iterations(&m, &mut p, &o, secs);
+            let label = format!(
+                "fast network, round {round}, colour grid {}",
+                if on {
+                    "on (12 levels, T = 2^15)"
+                } else {
+                    "off"
+                }
+            );
+            let step = report(&label, &m, &st, peak, false);
+            rates[j] = (step, st.samples as f64 / st.wall);
+        }
+        println!(
+            "  colour grid against none, round {round}: train_step {:.2}x, whole iteration {:.2}x (samples/s; below 1 = slower)",
+            rates[1].0 / rates[0].0,
+            rates[1].1 / rates[0].1
+        );
+        ratios.push(rates[1].1 / rates[0].1);
+    }
+    println!("  whole-iteration ratios: {ratios:.2?}");
+}
+
 fn main() {
     let secs: f64 = std::env::var("NEUS_AUG_BENCH_SECS")
         .ok()
@@ -1128,6 +1163,10 @@ fn main() {
         sdf_layer_parts();
     }
     if std::env::var("NEUS_AUG_BENCH_MLP_ONLY").is_ok() {
+        return;
+    }
+    if std::env::var("NEUS_AUG_BENCH_COLOR_GRID").is_ok() {
+        color_grid_cost(peak, secs);
         return;
     }
 
