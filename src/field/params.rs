@@ -7,8 +7,9 @@ use serde::{Deserialize, Serialize};
 /// One named slice of the flat buffer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParamGroup {
-    /// `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`, or with a learned
-    /// background (`crate::render::background`) `bg_density` and `bg_color`.
+    /// `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`, with a learned
+    /// background (`crate::render::background`) `bg_density` and `bg_color`, and with a colour
+    /// grid (`FieldConfig::color_grid`) `color_grid`.
     pub name: String,
     /// First element in the flat buffer.
     pub offset: usize,

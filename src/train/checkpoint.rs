@@ -3,8 +3,8 @@
 //!
 //! Tensors (all little-endian):
 //! - `params.<group>`: f32, the group's shape (`hash_grid`, `sdf_mlp`, `color_mlp`, `variance`,
-//!   `appearance`, and `bg_density`, `bg_color` with a learned background; see
-//!   [`crate::field::ParamLayout`]);
+//!   `appearance`, `bg_density`, `bg_color` with a learned background, `color_grid` with a
+//!   colour grid; see [`crate::field::ParamLayout`]);
 //! - `adam_m.<group>`, `adam_v.<group>`: f32, AdamW's moments, same shapes;
 //! - `occupancy.occ`: f32 `[r, r, r]`, `occupancy.binary`: u8 `[r, r, r]`;
 //! - with error-map sampling (`train.error_map`), `error_map.err` and `error_map.cdf`: f32
