@@ -675,24 +675,8 @@ mod tests {
     }
 
     /// `C₀` through `kernel` with [`operands`]' leading dimensions (`ldb = n + 3`, `ldc = n + 2`)
-    /// and the epilogue `f`: the resulting `C`.
-    #[allow(clippy::too_many_arguments)]
-    fn through<T: Real>(
-        kernel: Kernel,
-        m: usize,
-        kk: usize,
-        n: usize,
-        sa: Strided<T>,
-        b: &[T],
-        c0: &[T],
-        init: Init<T>,
-        f: impl FnMut(usize, &mut [T]),
-    ) -> Vec<T> {
-        through_as::<T, true>(kernel, m, kk, n, sa, b, c0, init, f)
-    }
-
-    /// [`through`], with the explicit-register tiles allowed (`SIMD`) or not (the portable
-    /// loops alone).
+    /// and the epilogue `f`: the resulting `C`, with the explicit-register tiles allowed (`SIMD`)
+    /// or not (the portable loops alone).
     #[allow(clippy::too_many_arguments)]
     fn through_as<T: Real, const SIMD: bool>(
         kernel: Kernel,
@@ -868,7 +852,7 @@ mod tests {
                     }
                 };
                 for kernel in Kernel::ALL {
-                    check(&through(
+                    check(&through_as::<_, true>(
                         kernel,
                         m,
                         kk,
