@@ -97,6 +97,9 @@ pub struct TrainSummary {
     /// The unseen-space prior at the last step (`train.unseen`); `null` when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unseen_last: Option<crate::train::unseen::UnseenStep>,
+    /// The multi-view patch consistency at the last step (`train.multiview`); absent when off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub multiview_last: Option<crate::train::multiview::MultiViewStep>,
     /// Error-map sampling at the end of training (`train.error_map`); absent when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error_map: Option<crate::train::error_map::ErrorMapSummary>,

@@ -52,6 +52,7 @@ use crate::train::checkpoint::{self, CheckpointError, TrainState};
 use crate::train::data::{camera_rays, DataError};
 use crate::train::hull::{self, HullError, HullSdf, InitKind};
 use crate::train::metrics::{psnr, ssim};
+use crate::train::multiview::MultiViewPrior;
 use crate::train::photo_hull::{self, PhotoCarveParams};
 use crate::train::unseen::UnseenPrior;
 use crate::train::{TrainData, TrainError, Trainer};
@@ -540,6 +541,13 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             cameras.clone(),
         ));
     }
+    if cfg.train.multiview.enabled() {
+        trainer = trainer.with_multiview_prior(MultiViewPrior::new(
+            cfg.train.multiview.clone(),
+            &cameras,
+            data.views(),
+        ));
+    }
     let mut hull_init = None;
     let mut state: TrainState = match resumed {
         Some(s) => {
@@ -601,10 +609,16 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 u.used
             )
         });
+        let mv_note = report.multiview.map_or(String::new(), |m| {
+            format!(
+                " patch cost {:.3} on {}/{} rays",
+                m.mean_cost, m.used, m.rays
+            )
+        });
         progress.update(
             state.step,
             format!(
-                "loss {:.4} psnr {:.2} inv_s {:.0} rays/s {:.0}{unseen_note}",
+                "loss {:.4} psnr {:.2} inv_s {:.0} rays/s {:.0}{unseen_note}{mv_note}",
                 report.out.total,
                 -10.0 * report.out.mse_all.max(1e-12).log10(),
                 report.out.inv_s,
@@ -646,6 +660,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         sphere_cover,
         photo_carve,
         unseen_last: last.as_ref().and_then(|r| r.unseen),
+        multiview_last: last.as_ref().and_then(|r| r.multiview),
         error_map: state.error_map.as_ref().map(|m| m.summary()),
     };
     say(

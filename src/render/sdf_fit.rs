@@ -70,6 +70,27 @@ impl NeusModel {
         (weight * sum / n, positive)
     }
 
+    /// Adds `Σ_i w_i·∂f(x_i)/∂θ` into `grads` for `points [n][3]` and weights `w [n]`, with
+    /// `active` hash levels (only the `hash_grid` and `sdf_mlp` groups are written), and returns
+    /// the SDF values `f(x_i)` (normalised units). The multi-view prior (`train::multiview`)
+    /// moves surface points through it by implicit differentiation. Single-threaded.
+    pub fn sdf_weighted_grad<T: Real>(
+        &self,
+        params: &[T],
+        points: &[[T; 3]],
+        weights: &[T],
+        active: usize,
+        grads: &mut [T],
+    ) -> Vec<f64> {
+        assert_eq!(points.len(), weights.len(), "one weight per point");
+        let mut f = vec![0.0; points.len()];
+        self.sdf_point_loss_grad(params, points, active, grads, |i, v| {
+            f[i] = v.to_f64();
+            (0.0, weights[i])
+        });
+        f
+    }
+
     /// The shared core: evaluates channel 0 of the SDF network at `points`, asks `per_point(i,
     /// f_i)` for the point's loss term and `∂L/∂f_i`, back-propagates those into `grads` and
     /// returns the sum of the terms. Single-threaded.

@@ -1,7 +1,8 @@
 //! Training: the loss ([`loss`]: colour, mask and the regularisers' weights, behind the
 //! renderer's `RayLoss` interface), the optimiser ([`adam`]: AdamW with per-group learning rates
 //! and a NaN guard), the learning-rate schedule, training rays, checkpoints, the training loop
-//! (with the dynamic ray count and error-map sampling, [`error_map`]) and image metrics.
+//! (with the dynamic ray count and error-map sampling, [`error_map`]), the opt-in priors
+//! ([`unseen`], [`multiview`]) and image metrics.
 
 pub mod adam;
 pub mod checkpoint;
@@ -10,6 +11,7 @@ pub mod error_map;
 pub mod hull;
 pub mod loss;
 pub mod metrics;
+pub mod multiview;
 pub mod photo_hull;
 pub mod schedule;
 pub mod trainer;

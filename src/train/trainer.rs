@@ -8,6 +8,7 @@ use super::data::{Batch, TrainData};
 use super::error_map::{ErrorMap, ErrorMapConfig};
 use super::hull::InitConfig;
 use super::loss::{StepOutput, Targets, TrainStep};
+use super::multiview::{MultiViewConfig, MultiViewPrior, MultiViewStep};
 use super::schedule::LrSchedule;
 use super::unseen::{UnseenConfig, UnseenPrior, UnseenStep};
 use crate::render::model::{ModelError, NeusModel, RayBatch};
@@ -40,6 +41,10 @@ pub struct TrainConfig {
     /// preset; see [`super::error_map`]).
     #[serde(skip_serializing_if = "ErrorMapConfig::is_default")]
     pub error_map: ErrorMapConfig,
+    /// Multi-view patch consistency (`[train.multiview]`; off by default, see
+    /// [`super::multiview`]).
+    #[serde(skip_serializing_if = "MultiViewConfig::is_default")]
+    pub multiview: MultiViewConfig,
 }
 
 impl Default for TrainConfig {
@@ -53,6 +58,7 @@ impl Default for TrainConfig {
             init: InitConfig::default(),
             unseen: UnseenConfig::default(),
             error_map: ErrorMapConfig::default(),
+            multiview: MultiViewConfig::default(),
         }
     }
 }
@@ -92,6 +98,8 @@ pub struct StepReport {
     pub occupancy_updated: bool,
     /// What the unseen-space prior did (`None` when off or before its start step).
     pub unseen: Option<UnseenStep>,
+    /// What the multi-view prior did (`None` when off or before its start step).
+    pub multiview: Option<MultiViewStep>,
 }
 
 /// Independent random streams of a step.
@@ -127,6 +135,7 @@ pub struct Trainer<'a> {
     batch: Batch,
     consecutive_skips: u32,
     unseen: Option<UnseenPrior>,
+    multiview: Option<MultiViewPrior>,
     /// `[rays]` per-ray colour errors of the step (error-map sampling only).
     ray_errors: Vec<AtomicU32>,
 }
@@ -150,6 +159,7 @@ impl<'a> Trainer<'a> {
             batch: Batch::default(),
             consecutive_skips: 0,
             unseen: None,
+            multiview: None,
             ray_errors: Vec::new(),
         }
     }
@@ -158,6 +168,13 @@ impl<'a> Trainer<'a> {
     /// start step on.
     pub fn with_unseen_prior(mut self, prior: UnseenPrior) -> Self {
         self.unseen = Some(prior);
+        self
+    }
+
+    /// Adds the multi-view patch consistency (`config.multiview`, [`super::multiview`]) to every
+    /// step from its start step on.
+    pub fn with_multiview_prior(mut self, prior: MultiViewPrior) -> Self {
+        self.multiview = Some(prior);
         self
     }
 
@@ -245,6 +262,16 @@ impl<'a> Trainer<'a> {
                 &mut self.grads,
             )
         });
+        let multiview = self.multiview.as_ref().and_then(|m| {
+            m.add_grad(
+                model,
+                &state.params,
+                step,
+                sched.active_levels,
+                &self.batch,
+                &mut self.grads,
+            )
+        });
         let lr_factor = self.config.lr.factor(step, self.config.iterations);
         let skipped = match state.adam.step_and_zero_grads(
             &mut state.params,
@@ -287,6 +314,7 @@ impl<'a> Trainer<'a> {
             skipped,
             occupancy_updated,
             unseen,
+            multiview,
         })
     }
 }
