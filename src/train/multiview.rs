@@ -343,6 +343,10 @@ impl MultiViewPrior {
                     return None;
                 }
                 let s = nd0 / ndm;
+                if s <= 0.0 {
+                    // The plane meets this sample's ray behind the camera.
+                    return None;
+                }
                 a.push(val);
                 dirs.push(dm.map(|x| s * x));
             }
