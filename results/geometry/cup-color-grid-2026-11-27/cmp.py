@@ -2,9 +2,13 @@
 # model.field.color_grid.enabled=true`, runs/hard-*) against the committed `fast` at seed 0 (the
 # span-2 record's runs, the same recipe). Run from the repository root:
 #   python3 results/geometry/cup-color-grid-2026-11-27/cmp.py
-import json, os
+# Other records compare their suite the same way: cmp.py RECORD LABEL COLUMN PHRASE (their own
+# cmp.py calls this one).
+import json, os, sys
 G = 'results/geometry/'
-HERE = G + 'cup-color-grid-2026-11-27/runs/'
+RECORD, LABEL, COLUMN, PHRASE = (sys.argv[1:5] if len(sys.argv) > 4
+                                 else ('cup-color-grid-2026-11-27', 'colour grid', 'grid', 'the grid'))
+HERE = G + RECORD + '/runs/'
 SP2 = G + 'span2-fast-2026-11-26/runs/'
 PREV = 'results/speed/zen4-2026-11-26-one-sided-span2/runs/'
 SCENES = ['blob', 'torus', 'double-torus', 'thin', 'blocks', 'cup', 'relief', 'plate', 'rods']
@@ -29,7 +33,7 @@ def cell(v):
     return f'{v[0]:.3f} ({v[1]:.2f}×), {v[3]}' + ('' if v[3] == v[4] else ' ✗')
 
 
-print('| scene | aug | colour grid: Chamfer (× floor), genus | committed | change | normal error (°) grid / committed | PSNR (dB) grid / committed |')
+print(f'| scene | aug | {LABEL}: Chamfer (× floor), genus | committed | change | normal error (°) {COLUMN} / committed | PSNR (dB) {COLUMN} / committed |')
 print('|---|---|---|---|---|---|---|')
 ratios = [[], []]
 for scene in SCENES:
@@ -50,5 +54,5 @@ for scene in SCENES:
               f'| {g[2]:.2f} / {c[2]:.2f} | {g[5]:.2f} / {c[5]:.2f} |')
 if ratios[0]:
     print(f'\nMean ratio to the floor over the {len(ratios[0])} scenes without augmentation that '
-          f'have both: {sum(ratios[0]) / len(ratios[0]):.3f}× with the grid, '
+          f'have both: {sum(ratios[0]) / len(ratios[0]):.3f}× with {PHRASE}, '
           f'{sum(ratios[1]) / len(ratios[1]):.3f}× committed.')
