@@ -20,7 +20,8 @@
 //! 2. **Patch cost.** A `(2h+1)²` grid of points, `patch_step` pixels apart, around the ray's
 //!    pixel in its (reference) view is lifted onto the plane through `x* = o + t*·d` with normal
 //!    `n`, projected into each of the view's `sources` nearest training views (smallest angle
-//!    between the optical axes) and sampled there (bilinear, grey `0.299 R + 0.587 G + 0.114 B`).
+//!    between the optical axes) and sampled there (bilinear, on the grey image of
+//!    [`crate::augment::luma`], ITU-R 601-2).
 //!    A source's cost is `1 − NCC` of the two patches (in `[0, 2]`); sources where the patch
 //!    leaves the image or lies behind the camera are left out, and the ray's cost is the mean
 //!    of the `top_k` lowest, so views that see another surface there (occlusion) drop out, as
@@ -39,6 +40,7 @@
 //! either patch, not to the augmentations' hue or saturation changes.
 
 use super::data::Batch;
+use crate::augment::luma;
 use crate::field::Real;
 use crate::render::rays::ray_aabb;
 use crate::render::NeusModel;
@@ -221,7 +223,7 @@ impl GreyView {
         let grey = img
             .data
             .chunks_exact(3)
-            .map(|p| 0.299 * p[0] + 0.587 * p[1] + 0.114 * p[2])
+            .map(|p| luma([p[0], p[1], p[2]]))
             .collect();
         let k_inv = cam.k.try_inverse().expect("K has a positive diagonal");
         Self {
