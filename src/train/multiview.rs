@@ -144,11 +144,11 @@ impl MultiViewConfig {
                 "must be in 1..=sources",
             ));
         }
-        if self.march_samples < 2 {
+        if !(2..=4096).contains(&self.march_samples) {
             return Some((
                 "train.multiview.march_samples",
                 self.march_samples.to_string(),
-                "must be at least 2",
+                "must be in 2..=4096",
             ));
         }
         if !finite_nonneg(self.min_std) {
@@ -866,8 +866,12 @@ mod tests {
                 patch_step: 0.0,
                 ..Default::default()
             },
+            MultiViewConfig {
+                march_samples: 1 << 20,
+                ..Default::default()
+            },
         ];
-        let keys = ["weight", "top_k", "min_cos", "patch_step"];
+        let keys = ["weight", "top_k", "min_cos", "patch_step", "march_samples"];
         for (c, k) in bad.iter().zip(keys) {
             let (key, _, _) = c.invalid().expect("refused");
             assert_eq!(key, format!("train.multiview.{k}"));
