@@ -1170,7 +1170,7 @@ fn multiview_cost(peak: f64, secs: f64) {
         let mut n = 0;
         let mut last = None;
         while c.elapsed().as_secs_f64() < secs.min(3.0) || n < 3 {
-            last = prior.add_grad(&m, &p, 1000, active, &batch, &mut grads);
+            last = prior.add_grad(&m, &p, 1000, 2000, active, &batch, &mut grads);
             n += 1;
         }
         let per = c.elapsed().as_secs_f64() / n as f64;

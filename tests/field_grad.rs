@@ -580,6 +580,7 @@ fn multiview_gradient_matches_central_differences() {
         march_samples: 64,
         ..Default::default()
     };
+    let weight = cfg.weight as f64;
     let prior = &MultiViewPrior::new(cfg, &cams, &imgs);
     let rays: Vec<(usize, [u32; 2])> = (0..24)
         .map(|_| {
@@ -604,6 +605,7 @@ fn multiview_gradient_matches_central_differences() {
     }
     let mut grads = vec![0.0; p.len()];
     let (out, normals) = prior.loss_grad(
+        weight,
         m,
         &p,
         &eval(m, &p, active),
@@ -619,6 +621,7 @@ fn multiview_gradient_matches_central_differences() {
     let loss = |q: &[f64]| {
         let mut g = vec![0.0; q.len()];
         let (o, _) = prior.loss_grad(
+            weight,
             m,
             q,
             &eval(m, q, active),

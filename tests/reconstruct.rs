@@ -552,9 +552,31 @@ fn multiview_prior_runs_is_deterministic_and_reported() {
     );
     let cost = u["mean_cost"].as_f64().unwrap();
     assert!((0.0..=2.0).contains(&cost), "{u}");
+    let loss = u["loss"].as_f64().unwrap();
+    assert!((loss - 0.5 * cost).abs() <= 1e-9 * (1.0 + loss), "{u}");
     assert!(std::fs::read_to_string(a.join("config.toml"))
         .unwrap()
         .contains("[train.multiview]"));
+    // With a ramp to 0.125, the last step (23 of 24) weighs its cost by 0.125: the trainer
+    // hands the prior the run's length.
+    let ramp = write_config(
+        tmp.path(),
+        "[train.multiview]\nweight = 0.5\nstart_step = 8\nrays = 64\nfinal_weight = 0.125\n",
+    );
+    let r = tmp.path().join("ramp");
+    ok(&reconstruct(&ramp, &r, &[]));
+    let rm: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(r.join("metrics.json")).unwrap()).unwrap();
+    let ru = &rm["train"]["multiview_last"];
+    let (rl, rc) = (
+        ru["loss"].as_f64().unwrap(),
+        ru["mean_cost"].as_f64().unwrap(),
+    );
+    assert!(
+        rc > 0.0 && (rl - 0.125 * rc).abs() <= 1e-9 * (1.0 + rl),
+        "{ru}"
+    );
+    assert_ne!(mesh, std::fs::read(r.join("mesh.ply")).unwrap());
     let pm: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(p.join("metrics.json")).unwrap()).unwrap();
     assert!(
@@ -577,6 +599,17 @@ fn multiview_prior_runs_is_deterministic_and_reported() {
         &["--set", "train.multiview.min_cos=-1"],
         None,
         &["train.multiview.min_cos"],
+    );
+    fails_with(
+        "",
+        &[
+            "--set",
+            "train.multiview.weight=1",
+            "--set",
+            "train.multiview.final_weight=-1",
+        ],
+        None,
+        &["train.multiview.final_weight"],
     );
 }
 

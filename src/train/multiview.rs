@@ -60,6 +60,11 @@ pub struct MultiViewConfig {
     pub rays: usize,
     /// First step that applies it (0).
     pub start_step: u64,
+    /// Weight at the run's last step: the weight goes linearly from `weight` at `start_step` to
+    /// this at the last step (absent: constant `weight`). A strong pull shapes the surface
+    /// early; a weaker one at the end leaves the fine detail to the colour loss.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub final_weight: Option<f32>,
     /// Patch half-width `h` in samples: `(2h + 1)²` samples (3).
     pub patch_half: usize,
     /// Spacing of the patch samples in the reference image, pixels (1.5).
@@ -84,6 +89,7 @@ impl Default for MultiViewConfig {
             weight: 0.0,
             rays: 256,
             start_step: 0,
+            final_weight: None,
             patch_half: 3,
             patch_step: 1.5,
             sources: 8,
@@ -107,6 +113,25 @@ impl MultiViewConfig {
         self.weight > 0.0
     }
 
+    /// The weight at `step` of a run of `iterations` steps (0 before `start_step`): `weight`,
+    /// or the linear ramp to `final_weight` at step `iterations − 1`.
+    pub fn weight_at(&self, step: u64, iterations: u64) -> f32 {
+        if !self.enabled() || step < self.start_step {
+            return 0.0;
+        }
+        match self.final_weight {
+            None => self.weight,
+            Some(end) => {
+                let last = iterations.saturating_sub(1);
+                if last <= self.start_step {
+                    return self.weight;
+                }
+                let f = (step.min(last) - self.start_step) as f64 / (last - self.start_step) as f64;
+                (self.weight as f64 + (end as f64 - self.weight as f64) * f) as f32
+            }
+        }
+    }
+
     /// The first invalid field, as `(key, value, why)`.
     pub fn invalid(&self) -> Option<(&'static str, String, &'static str)> {
         let finite_nonneg = |v: f32| v.is_finite() && v >= 0.0;
@@ -116,6 +141,9 @@ impl MultiViewConfig {
                 self.weight.to_string(),
                 "must be ≥ 0",
             ));
+        }
+        if let Some(w) = self.final_weight.filter(|&w| !finite_nonneg(w)) {
+            return Some(("train.multiview.final_weight", w.to_string(), "must be ≥ 0"));
         }
         if self.rays == 0 {
             return Some(("train.multiview.rays", "0".into(), "must be at least 1"));
@@ -401,15 +429,18 @@ impl MultiViewPrior {
         Some((c * inv, dc * inv))
     }
 
-    /// Adds the prior's gradient at step `step` into `grads` for rays of `batch` (the step's
-    /// training batch, its `views` indexing the cameras given to [`MultiViewPrior::new`]): the
-    /// first `rays` rays inside the mask (every ray without masks). `None` when off or before
-    /// its start step.
+    /// Adds the prior's gradient at step `step` of `iterations` into `grads` for rays of `batch`
+    /// (the step's training batch, its `views` indexing the cameras given to
+    /// [`MultiViewPrior::new`]): the first `rays` rays inside the mask (every ray without
+    /// masks), at the weight [`MultiViewConfig::weight_at`]. `None` when off or before its
+    /// start step.
+    #[allow(clippy::too_many_arguments)]
     pub fn add_grad(
         &self,
         model: &NeusModel,
         params: &[f32],
         step: u64,
+        iterations: u64,
         active: usize,
         batch: &Batch,
         grads: &mut [f32],
@@ -418,6 +449,7 @@ impl MultiViewPrior {
         if !cfg.enabled() || step < cfg.start_step {
             return None;
         }
+        let weight = cfg.weight_at(step, iterations) as f64;
         let rays: Vec<(usize, [u32; 2])> = (0..batch.len())
             .filter(|&i| batch.mask.get(i).is_none_or(|&m| m >= 0.5))
             .take(cfg.rays)
@@ -432,19 +464,21 @@ impl MultiViewPrior {
                 .collect()
         };
         let eps = model.fd_eps(active);
-        let (out, _) = self.loss_grad(model, params, &sdf, active, eps, &rays, None, grads);
+        let (out, _) = self.loss_grad(weight, model, params, &sdf, active, eps, &rays, None, grads);
         Some(out)
     }
 
-    /// The prior's loss on explicit rays, in the precision `T` of `params`, and its gradient
-    /// added into `grads`: `rays[i] = (view, [x, y])`, the ray through that pixel's centre.
-    /// `sdf` evaluates the field (channel 0) at points, `eps` is the normal's difference step.
-    /// `normals`: hold each ray's plane normal at the given value (a gradient check's
-    /// differences must not move it, since the gradient treats it as fixed); `None` computes
-    /// them. Returns the step's summary and the normal each ray used (`None`: not used).
+    /// The prior's loss at the weight `weight` on explicit rays, in the precision `T` of
+    /// `params`, and its gradient added into `grads`: `rays[i] = (view, [x, y])`, the ray
+    /// through that pixel's centre. `sdf` evaluates the field (channel 0) at points, `eps` is
+    /// the normal's difference step. `normals`: hold each ray's plane normal at the given value
+    /// (a gradient check's differences must not move it, since the gradient treats it as
+    /// fixed); `None` computes them. Returns the step's summary and the normal each ray used
+    /// (`None`: not used).
     #[allow(clippy::too_many_arguments, clippy::type_complexity)]
     pub fn loss_grad<T: Real>(
         &self,
+        weight: f64,
         model: &NeusModel,
         params: &[T],
         sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
@@ -503,9 +537,9 @@ impl MultiViewPrior {
             return (out, used_normals);
         }
         let nu = used.len() as f64;
-        let w = cfg.weight as f64 / nu;
+        let w = weight / nu;
         out.mean_cost = used.iter().map(|u| u.0).sum::<f64>() / nu;
-        out.loss = cfg.weight as f64 * out.mean_cost;
+        out.loss = weight * out.mean_cost;
         let pts: Vec<[T; 3]> = used.iter().map(|u| u.2.map(T::from_f64)).collect();
         // ∂L/∂f(x*) = (∂L/∂t*)·(∂t*/∂f) = (w·∂cost/∂t*)·(−1/(∇f·d)).
         let wts: Vec<T> = used.iter().map(|u| T::from_f64(-w * u.1)).collect();
@@ -870,11 +904,55 @@ mod tests {
                 march_samples: 1 << 20,
                 ..Default::default()
             },
+            MultiViewConfig {
+                final_weight: Some(-1.0),
+                ..Default::default()
+            },
         ];
-        let keys = ["weight", "top_k", "min_cos", "patch_step", "march_samples"];
+        let keys = [
+            "weight",
+            "top_k",
+            "min_cos",
+            "patch_step",
+            "march_samples",
+            "final_weight",
+        ];
         for (c, k) in bad.iter().zip(keys) {
             let (key, _, _) = c.invalid().expect("refused");
             assert_eq!(key, format!("train.multiview.{k}"));
         }
+    }
+
+    #[test]
+    fn weight_ramps_from_the_start_step_to_the_last_step() {
+        let constant = MultiViewConfig {
+            weight: 2.0,
+            start_step: 10,
+            ..Default::default()
+        };
+        assert_eq!(constant.weight_at(9, 101), 0.0, "before the start");
+        assert_eq!(constant.weight_at(10, 101), 2.0);
+        assert_eq!(constant.weight_at(100, 101), 2.0);
+        let ramp = MultiViewConfig {
+            final_weight: Some(0.5),
+            ..constant.clone()
+        };
+        assert_eq!(ramp.weight_at(9, 101), 0.0);
+        assert_eq!(ramp.weight_at(10, 101), 2.0);
+        // Step 55 is halfway from step 10 to the last step, 100.
+        assert!((ramp.weight_at(55, 101) - 1.25).abs() < 1e-6);
+        assert!((ramp.weight_at(100, 101) - 0.5).abs() < 1e-6);
+        assert!(
+            (ramp.weight_at(500, 101) - 0.5).abs() < 1e-6,
+            "past the end"
+        );
+        // A run too short for a ramp keeps the start weight; off stays off.
+        assert_eq!(ramp.weight_at(10, 11), 2.0);
+        let off = MultiViewConfig {
+            weight: 0.0,
+            final_weight: Some(3.0),
+            ..Default::default()
+        };
+        assert_eq!(off.weight_at(50, 101), 0.0);
     }
 }
