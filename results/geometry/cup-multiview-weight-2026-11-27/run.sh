@@ -16,6 +16,8 @@
 #   run.sh 'mv5r160-cav-s0 sc/cup400 0 "${CG[@]}" "${CAV[@]}" --set train.multiview.weight=5.0 --set train.init.resolution=160'
 #   run.sh 'mv5k2-cav-s0 sc/cup400 0 "${CG[@]}" "${CAV[@]}" --set train.multiview.weight=5.0 --set train.multiview.top_k=2'
 #   BIN=./mvs05.sh run.sh 'mvramp10g05-cav-s1 sc/cup400 1 "${CG[@]}" "${CAV[@]}" --set train.multiview.weight=10.0 --set train.multiview.final_weight=1.0'
+#   BIN=./mvs05.sh run.sh 'mvramp10g05mc3-cav-s1 sc/cup400 1 "${CG[@]}" "${CAV[@]}" --set train.multiview.weight=10.0 --set train.multiview.final_weight=1.0 --set train.multiview.min_cos=0.3'
+#   BIN=./mvs05.sh run.sh 'mvramp10g05mc3-cav-s0 sc/cup400 0 "${CG[@]}" "${CAV[@]}" --set train.multiview.weight=10.0 --set train.multiview.final_weight=1.0 --set train.multiview.min_cos=0.3'
 #   BIN=./mvs05.sh run.sh 'mv5g05-cav-s1 sc/cup400 1 "${CG[@]}" "${CAV[@]}" --set train.multiview.weight=5.0'
 #   BIN=./mvs05.sh run.sh 'mv5g05-cav-s0 sc/cup400 0 "${CG[@]}" "${CAV[@]}" --set train.multiview.weight=5.0'
 #   BIN=./mvtruth.sh run.sh 'mv5-truth sc/cup400 0 "${CG[@]}" "${TRUTH[@]}" --set model.render.variance_init=0.6 --set model.render.cos_anneal_end=0 --set train.multiview.weight=5.0'

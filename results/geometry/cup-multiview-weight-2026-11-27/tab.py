@@ -18,6 +18,8 @@ rows = [
  ('mvramp10r512-cav-s0', 0, 'cavity', '10 → 1', '512 rays', 'mvr'),
  ('mvramp10mc3-cav-s1', 1, 'cavity', '10 → 1', '`min_cos` 0.3', 'mvr'),
  ('mvramp10g05-cav-s1', 1, 'cavity', '10 → 1', '\\|∇f\\| ≥ 0.5 (scratch)', 'mvs05'),
+ ('mvramp10g05mc3-cav-s0', 0, 'cavity', '10 → 1', '\\|∇f\\| ≥ 0.5 (scratch), `min_cos` 0.3', 'mvs05'),
+ ('mvramp10g05mc3-cav-s1', 1, 'cavity', '10 → 1', '\\|∇f\\| ≥ 0.5 (scratch), `min_cos` 0.3', 'mvs05'),
  ('mv5g05-cav-s0', 0, 'cavity', '5', '\\|∇f\\| ≥ 0.5 (scratch)', 'mvs05'),
  ('mv5g05-cav-s1', 1, 'cavity', '5', '\\|∇f\\| ≥ 0.5 (scratch)', 'mvs05'),
  ('mv5r160-cav-s0', 0, 'cavity, 160³ carve', '5', '', 'mvr'),
