@@ -677,22 +677,12 @@ fn surface_hits(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::{Matrix3, Vector3};
+    use nalgebra::Vector3;
 
     /// A camera at `c` looking at `target`, `w×h` pixels, focal `f` pixels (`sim::rig::look_at`,
     /// with `+z` up).
     fn look_at(c: Vector3<f64>, target: Vector3<f64>, w: u32, h: u32, f: f64) -> Camera {
-        let k = Matrix3::new(
-            f,
-            0.0,
-            w as f64 / 2.0,
-            0.0,
-            f,
-            h as f64 / 2.0,
-            0.0,
-            0.0,
-            1.0,
-        );
+        let k = crate::sim::rig::centred_intrinsics(f, w, h);
         crate::sim::rig::look_at(c, target, Vector3::z(), k, w, h)
     }
 

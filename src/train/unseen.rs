@@ -377,17 +377,7 @@ mod tests {
         let x = up.cross(&z).normalize();
         let y = z.cross(&x);
         let r = Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]);
-        let k = Matrix3::new(
-            f,
-            0.0,
-            w as f64 / 2.0,
-            0.0,
-            f,
-            h as f64 / 2.0,
-            0.0,
-            0.0,
-            1.0,
-        );
+        let k = crate::sim::rig::centred_intrinsics(f, w, h);
         Camera {
             k,
             r,
