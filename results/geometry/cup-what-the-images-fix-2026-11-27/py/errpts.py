@@ -9,4 +9,5 @@ idx = np.round((s - BB[0]) / Res).astype(int); ok = np.all((idx >= 0) & (idx < n
 inm = np.zeros(len(s), bool); inm[ok] = O[idx[ok, 0], idx[ok, 1], idx[ok, 2]]
 dd, _ = cKDTree(stl).query(s, workers=2); keep = inm & (dd < 20) & (dd > 1.0)
 np.save(out + '.dist.npy', dd[keep]); trimesh.PointCloud(s[keep]).export(out)
+good = inm & (dd < 0.3); trimesh.PointCloud(s[good]).export(out.replace('.ply', '-good.ply')); np.save(out.replace('.ply', '-good.ply') + '.dist.npy', dd[good])
 print('points with error > 1 mm under the DTU rule:', keep.sum(), 'of', (inm & (dd < 20)).sum())
