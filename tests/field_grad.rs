@@ -636,3 +636,81 @@ fn multiview_gradient_matches_central_differences() {
     };
     check_sdf_group_gradients(&model, &mut p, &grads, loss, 1e-8, &mut rng);
 }
+
+/// The depth-sweep carving's loss (issue 13, `train::multiview::carve_loss_grad`) on a fixed
+/// plan: a hinge `max(0, τ − f)` on each carved span's points (some above τ, so no term) and
+/// `|f|` at the surface point. Against central differences in f64, and against the loss
+/// written out; points are held a margin away from the hinge's and `|f|`'s kinks.
+#[test]
+fn carve_gradient_matches_central_differences() {
+    use neus_aug::train::multiview::{carve_loss_grad, CarveConfig, CarvedRay};
+    let model = NeusModel::new(field_common::tiny_config()).unwrap();
+    let s = seed();
+    let mut p = perturbed_params_f64(&model, s);
+    let mut rng = Pcg64Mcg::seed_from_u64(s + 17);
+    let active = 3;
+    let value = |p: &[f64], x: [f64; 3]| {
+        let mut g = vec![0.0; p.len()];
+        model.sdf_weighted_grad(p, &[x], &[0.0], active, &mut g)[0]
+    };
+    let mut pick = |p: &[f64]| loop {
+        let x: [f64; 3] = std::array::from_fn(|_| rng.random_range(-0.6..0.6));
+        let f = value(p, x);
+        // τ on either side of f, at least 1e-3 away, so the hinge's state holds.
+        let tau = f + if rng.random_bool(0.6) { 0.02 } else { -0.02 };
+        if f.abs() > 1e-3 && tau > 0.0 {
+            return (x, tau);
+        }
+    };
+    let plan: Vec<CarvedRay> = (0..5)
+        .map(|i| CarvedRay {
+            t: 0.1 * i as f64,
+            t_b: 0.1 * i as f64 + 0.2,
+            free: (0..3 + i).map(|_| pick(&p)).collect(),
+            surface: pick(&p).0,
+        })
+        .collect();
+    let cv = CarveConfig {
+        weight: 0.7,
+        surface_weight: 0.5,
+        ..Default::default()
+    };
+    let eval = |q: &[f64]| {
+        let q = q.to_vec();
+        let m = &model;
+        move |pts: &[[f64; 3]]| {
+            let mut g = vec![0.0; q.len()];
+            m.sdf_weighted_grad(&q, pts, &vec![0.0; pts.len()], active, &mut g)
+        }
+    };
+    let mut grads = vec![0.0; p.len()];
+    let l = carve_loss_grad(&cv, &model, &p, &eval(&p), &plan, active, &mut grads);
+    let by_hand: f64 = plan
+        .iter()
+        .map(|c| {
+            let hinge = c
+                .free
+                .iter()
+                .map(|&(x, tau)| (tau - value(&p, x)).max(0.0))
+                .sum::<f64>()
+                / c.free.len() as f64;
+            0.7 * (hinge + 0.5 * value(&p, c.surface).abs()) / plan.len() as f64
+        })
+        .sum();
+    assert!(
+        l > 0.0 && (l - by_hand).abs() < 1e-6 * by_hand,
+        "{l} vs {by_hand}"
+    );
+    let loss = |q: &[f64]| {
+        let mut g = vec![0.0; q.len()];
+        carve_loss_grad(&cv, &model, q, &eval(q), &plan, active, &mut g)
+    };
+    check_sdf_group_gradients(&model, &mut p, &grads, loss, 1e-9, &mut rng);
+    // An empty plan: no loss, no gradient.
+    let mut g = vec![0.0; p.len()];
+    assert_eq!(
+        carve_loss_grad(&cv, &model, &p, &eval(&p), &[], active, &mut g),
+        0.0
+    );
+    assert!(g.iter().all(|&v| v == 0.0));
+}

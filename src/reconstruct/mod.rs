@@ -610,8 +610,16 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             )
         });
         let mv_note = report.multiview.map_or(String::new(), |m| {
+            let carve = if m.carve.swept > 0 {
+                format!(
+                    ", carved {}/{} rays by {:.4}",
+                    m.carve.carved, m.carve.swept, m.carve.mean_depth
+                )
+            } else {
+                String::new()
+            };
             format!(
-                " patch cost {:.3} on {}/{} rays",
+                " patch cost {:.3} on {}/{} rays{carve}",
                 m.mean_cost, m.used, m.rays
             )
         });

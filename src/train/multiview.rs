@@ -35,6 +35,11 @@
 //!    `Σ_r w_r ∂f(x*_r)/∂θ` with `w_r = −(∂L/∂t*_r)/(∇f·d)` through
 //!    [`NeusModel::sdf_weighted_grad`]. Only the SDF network and hash grid receive it.
 //!
+//! 4. **Carving (opt-in, `[train.multiview.carve]`, [`CarveConfig`]).** The gradient of step 3
+//!    only reaches a surface within a few pixels of disparity of its match; a false sheet far
+//!    in front of the true surface is swept back along the ray instead, and the span in front
+//!    of a better-matching depth is pushed empty.
+//!
 //! The reference images are the training images as training sees them (degraded when a study
 //! degrades them), before any colour augmentation: NCC is invariant to a gain and an offset of
 //! either patch, not to the augmentations' hue or saturation changes.
@@ -81,6 +86,157 @@ pub struct MultiViewConfig {
     pub min_std: f32,
     /// Surface points met at `|cos(n, d)|` below this are skipped (0.1).
     pub min_cos: f32,
+    /// Depth-sweep carving (`[train.multiview.carve]`; absent: off): see [`CarveConfig`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub carve: Option<CarveConfig>,
+}
+
+/// Depth-sweep carving (`[train.multiview.carve]`, opt-in; issue 13).
+///
+/// The patch cost's gradient only moves a surface within a few pixels of disparity of where
+/// the patches match, so a false sheet well in front of the true surface (the `cup`'s false
+/// bottom, 3–20 mm high: `results/geometry/cup-what-the-images-fix-2026-11-27`) feels no pull.
+/// This sweeps, as plane-sweep stereo does (Collins, CVPR 1996; the depth hypotheses of
+/// PatchMatch stereo, Schönberger et al., ECCV 2016, §4), the plane of each checked ray's
+/// surface point back along the ray: hypotheses `t* + j·range/hypotheses`, `j = 1..=hypotheses`,
+/// same normal, cost the mean `1 − NCC` of the `top_k` best sources. When the best hypothesis
+/// `t_b` costs under `max_cost` and at least `min_gain` less than the surface point itself,
+/// the images say the ray passes the surface point and ends at `t_b`, so
+/// - the SDF along the ray from `t*` to `t_b − 2·range/hypotheses` (points `range/hypotheses`
+///   apart) is pushed up to `min(tau, (t_b − t)/2)` (hinge: empty space, as free-space
+///   carving asks);
+/// - the SDF at `t_b` is pulled to zero (`|f|`, the sparse-point SDF loss of Geo-NeuS, §3.2).
+///
+/// `L = weight · mean over carved rays of (mean hinge + surface_weight·|f(t_b)|)`, on the
+/// plan's points held fixed ([`carve_loss_grad`]). Distances are in the normalised frame (the
+/// unit sphere of `cameras_sphere.npz`). Checked against the true depth on `cup`, the gate is
+/// right (most carved surface points are false) but `t_b` is rarely the truth, and later in a
+/// run it overshoots into the object more often (`results/geometry/cup-carve-2026-11-27`):
+/// hence `end_step`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CarveConfig {
+    /// Weight of the carving loss (1).
+    pub weight: f32,
+    /// First step that applies it (200).
+    pub start_step: u64,
+    /// Last step that applies it (absent: to the end). Once the false sheets are gone, what
+    /// is left to sweep is mostly surface near the truth, where a spurious match behind can
+    /// cut into the object.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub end_step: Option<u64>,
+    /// Rays checked per step, the first of the step's batch inside the mask, as the prior's
+    /// own rays (256: the prior's rays); only those whose surface point costs at least
+    /// `min_gain` are swept.
+    pub rays: usize,
+    /// How far behind the surface point the sweep reaches, normalised units (0.25).
+    pub range: f32,
+    /// Depth hypotheses over that range (40).
+    pub hypotheses: usize,
+    /// Sources averaged into a hypothesis's cost (2).
+    pub top_k: usize,
+    /// A hypothesis is taken only when its cost is below this (0.3).
+    pub max_cost: f32,
+    /// ... and at least this much below the surface point's cost (0.3).
+    pub min_gain: f32,
+    /// The SDF the hinge asks for in the carved span, normalised units (0.01).
+    pub tau: f32,
+    /// Share of `t_b − t*` carved from `t*` on (1: up to `t_b − 2·range/hypotheses`); a
+    /// shorter span spares the true surface when the sweep's best hypothesis lies beyond it.
+    pub span: f32,
+    /// Weight of the `|f(t_b)|` term against the hinge's (1).
+    pub surface_weight: f32,
+}
+
+impl Default for CarveConfig {
+    fn default() -> Self {
+        Self {
+            weight: 1.0,
+            start_step: 200,
+            end_step: None,
+            rays: 256,
+            range: 0.25,
+            hypotheses: 40,
+            top_k: 2,
+            max_cost: 0.3,
+            min_gain: 0.3,
+            tau: 0.01,
+            span: 1.0,
+            surface_weight: 1.0,
+        }
+    }
+}
+
+impl CarveConfig {
+    /// The first invalid field, as `(key, value, why)`; `sources` is the prior's source count.
+    fn invalid(&self, sources: usize) -> Option<(&'static str, String, &'static str)> {
+        let pos = |v: f32| v.is_finite() && v > 0.0;
+        let nonneg = |v: f32| v.is_finite() && v >= 0.0;
+        let checks = [
+            (
+                "train.multiview.carve.weight",
+                nonneg(self.weight),
+                self.weight.to_string(),
+                "must be ≥ 0",
+            ),
+            (
+                "train.multiview.carve.rays",
+                self.rays > 0,
+                self.rays.to_string(),
+                "must be at least 1",
+            ),
+            (
+                "train.multiview.carve.range",
+                pos(self.range),
+                self.range.to_string(),
+                "must be positive (normalised units)",
+            ),
+            (
+                "train.multiview.carve.hypotheses",
+                (2..=1024).contains(&self.hypotheses),
+                self.hypotheses.to_string(),
+                "must be in 2..=1024",
+            ),
+            (
+                "train.multiview.carve.top_k",
+                (1..=sources).contains(&self.top_k),
+                self.top_k.to_string(),
+                "must be in 1..=train.multiview.sources",
+            ),
+            (
+                "train.multiview.carve.max_cost",
+                pos(self.max_cost),
+                self.max_cost.to_string(),
+                "must be positive",
+            ),
+            (
+                "train.multiview.carve.min_gain",
+                nonneg(self.min_gain),
+                self.min_gain.to_string(),
+                "must be ≥ 0",
+            ),
+            (
+                "train.multiview.carve.span",
+                pos(self.span) && self.span <= 1.0,
+                self.span.to_string(),
+                "must be in (0, 1]",
+            ),
+            (
+                "train.multiview.carve.surface_weight",
+                nonneg(self.surface_weight),
+                self.surface_weight.to_string(),
+                "must be ≥ 0",
+            ),
+            (
+                "train.multiview.carve.tau",
+                pos(self.tau),
+                self.tau.to_string(),
+                "must be positive (normalised units)",
+            ),
+        ];
+        let (key, _, value, why) = checks.into_iter().find(|c| !c.1)?;
+        Some((key, value, why))
+    }
 }
 
 impl Default for MultiViewConfig {
@@ -98,6 +254,7 @@ impl Default for MultiViewConfig {
             refine: 6,
             min_std: 0.01,
             min_cos: 0.1,
+            carve: None,
         }
     }
 }
@@ -193,6 +350,9 @@ impl MultiViewConfig {
                 "must be in [0, 1)",
             ));
         }
+        if let Some(c) = &self.carve {
+            return c.invalid(self.sources);
+        }
         None
     }
 }
@@ -212,6 +372,23 @@ pub struct MultiViewStep {
     pub mean_cost: f64,
     /// Seconds of the step in the surface search, the patch costs and the gradient.
     pub seconds: [f64; 3],
+    /// Depth-sweep carving (`carve`): rays swept, rays carved, their weighted loss, and the
+    /// mean distance `t_b − t*` of the carved rays (normalised units).
+    #[serde(default)]
+    pub carve: CarveStep,
+}
+
+/// What the depth-sweep carving did at one step ([`CarveConfig`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CarveStep {
+    /// Rays whose sweep ran (a surface point costing at least `min_gain`).
+    pub swept: usize,
+    /// Rays carved (a hypothesis behind passed both tests).
+    pub carved: usize,
+    /// The weighted loss.
+    pub loss: f64,
+    /// Mean `t_b − t*` over the carved rays (0 when none).
+    pub mean_depth: f64,
 }
 
 type M3 = [[f64; 3]; 3];
@@ -350,6 +527,19 @@ impl MultiViewPrior {
     /// `None` when the reference patch leaves the image or has no texture, the plane is seen
     /// edge-on, or no source sees the whole patch.
     fn patch_cost(&self, view: usize, u0: f64, v0: f64, t: f64, n: [f64; 3]) -> Option<(f64, f64)> {
+        self.patch_cost_k(view, u0, v0, t, n, self.cfg.top_k)
+    }
+
+    /// [`Self::patch_cost`] with the mean over the `top_k` best sources.
+    fn patch_cost_k(
+        &self,
+        view: usize,
+        u0: f64,
+        v0: f64,
+        t: f64,
+        n: [f64; 3],
+        top_k: usize,
+    ) -> Option<(f64, f64)> {
         let cfg = &self.cfg;
         let rv = &self.views[view];
         let h = cfg.patch_half as i64;
@@ -421,7 +611,7 @@ impl MultiViewPrior {
             return None;
         }
         costs.sort_by(|x, y| x.0.total_cmp(&y.0));
-        let k = cfg.top_k.min(costs.len());
+        let k = top_k.min(costs.len());
         let inv = 1.0 / k as f64;
         let (c, dc) = costs[..k]
             .iter()
@@ -450,11 +640,14 @@ impl MultiViewPrior {
             return None;
         }
         let weight = cfg.weight_at(step, iterations) as f64;
-        let rays: Vec<(usize, [u32; 2])> = (0..batch.len())
-            .filter(|&i| batch.mask.get(i).is_none_or(|&m| m >= 0.5))
-            .take(cfg.rays)
-            .map(|i| (batch.views[i] as usize, batch.pixels[i]))
-            .collect();
+        let first = |count: usize| -> Vec<(usize, [u32; 2])> {
+            (0..batch.len())
+                .filter(|&i| batch.mask.get(i).is_none_or(|&m| m >= 0.5))
+                .take(count)
+                .map(|i| (batch.views[i] as usize, batch.pixels[i]))
+                .collect()
+        };
+        let rays = first(cfg.rays);
         let sdf = |pts: &[[f64; 3]]| -> Vec<f64> {
             let p32: Vec<[f32; 3]> = pts.iter().map(|p| p.map(|v| v as f32)).collect();
             model
@@ -464,7 +657,14 @@ impl MultiViewPrior {
                 .collect()
         };
         let eps = model.fd_eps(active);
-        let (out, _) = self.loss_grad(weight, model, params, &sdf, active, eps, &rays, None, grads);
+        let (mut out, _) =
+            self.loss_grad(weight, model, params, &sdf, active, eps, &rays, None, grads);
+        if let Some(cv) = cfg.carve.as_ref() {
+            if cv.weight > 0.0 && step >= cv.start_step && cv.end_step.is_none_or(|e| step <= e) {
+                let carve_rays = first(cv.rays);
+                out.carve = self.carve_grad(model, params, &sdf, active, eps, &carve_rays, grads);
+            }
+        }
         Some(out)
     }
 
@@ -489,15 +689,7 @@ impl MultiViewPrior {
         grads: &mut [T],
     ) -> (MultiViewStep, Vec<Option<[f64; 3]>>) {
         let cfg = &self.cfg;
-        let lines: Vec<([f64; 3], [f64; 3])> = rays
-            .iter()
-            .map(|&(v, [x, y])| {
-                let v = &self.views[v];
-                let d = mul(&v.m, [x as f64 + 0.5, y as f64 + 0.5, 1.0]);
-                let l = dot(d, d).sqrt();
-                (v.c, d.map(|q| q / l))
-            })
-            .collect();
+        let lines = self.lines(rays);
         let r = model.config.render.radius;
         let clock = Instant::now();
         let hits = surface_hits(sdf, &lines, r, cfg.march_samples, cfg.refine, eps);
@@ -547,6 +739,201 @@ impl MultiViewPrior {
         out.seconds[2] = clock.elapsed().as_secs_f64() - t_search - t_patch;
         (out, used_normals)
     }
+}
+
+impl MultiViewPrior {
+    /// The unit rays `(o, d)` through the centres of pixels `rays[i] = (view, [x, y])`.
+    fn lines(&self, rays: &[(usize, [u32; 2])]) -> Vec<([f64; 3], [f64; 3])> {
+        rays.iter()
+            .map(|&(v, [x, y])| {
+                let v = &self.views[v];
+                let d = mul(&v.m, [x as f64 + 0.5, y as f64 + 0.5, 1.0]);
+                let l = dot(d, d).sqrt();
+                (v.c, d.map(|q| q / l))
+            })
+            .collect()
+    }
+
+    /// The sweep of [`CarveConfig`] on one ray: `Some(t_b)` when a hypothesis behind the
+    /// surface point `t` (normal `n`) passes both tests, `None` when none does; the outer
+    /// `None` when the surface point itself has no cost, or one under `min_gain` (no
+    /// hypothesis could gain enough: not swept).
+    fn sweep(
+        &self,
+        cv: &CarveConfig,
+        view: usize,
+        px: [u32; 2],
+        t: f64,
+        n: [f64; 3],
+    ) -> Option<Option<f64>> {
+        let (u, v) = (px[0] as f64 + 0.5, px[1] as f64 + 0.5);
+        let (c0, _) = self.patch_cost_k(view, u, v, t, n, cv.top_k)?;
+        if c0 < cv.min_gain as f64 {
+            // No hypothesis can gain enough: not swept.
+            return None;
+        }
+        let dt = cv.range as f64 / cv.hypotheses as f64;
+        let best = (1..=cv.hypotheses)
+            .filter_map(|j| {
+                let tj = t + j as f64 * dt;
+                self.patch_cost_k(view, u, v, tj, n, cv.top_k)
+                    .map(|(c, _)| (c, tj))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        Some(best.and_then(|(c, tb)| {
+            (c < cv.max_cost as f64 && c0 - c >= cv.min_gain as f64).then_some(tb)
+        }))
+    }
+
+    /// The depth-sweep carving ([`CarveConfig`]) on explicit rays, its gradient added into
+    /// `grads` (arguments as [`Self::loss_grad`]): [`Self::carve_plan`], then
+    /// [`carve_loss_grad`]. Does nothing without a `carve` section.
+    #[allow(clippy::too_many_arguments)]
+    pub fn carve_grad<T: Real>(
+        &self,
+        model: &NeusModel,
+        params: &[T],
+        sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
+        active: usize,
+        eps: f64,
+        rays: &[(usize, [u32; 2])],
+        grads: &mut [T],
+    ) -> CarveStep {
+        let Some(cv) = self.cfg.carve.as_ref() else {
+            return CarveStep::default();
+        };
+        let (mut out, plan) = self.carve_plan(model.config.render.radius, sdf, eps, rays);
+        if !plan.is_empty() {
+            out.loss = carve_loss_grad(cv, model, params, sdf, &plan, active, grads);
+        }
+        out
+    }
+
+    /// Which of `rays` the sweep carves, and where ([`CarveConfig`]): the step's counts (no
+    /// loss yet) and one [`CarvedRay`] per carved ray. `r`: the half-size of the scene box.
+    pub fn carve_plan(
+        &self,
+        r: f32,
+        sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
+        eps: f64,
+        rays: &[(usize, [u32; 2])],
+    ) -> (CarveStep, Vec<CarvedRay>) {
+        let mut out = CarveStep::default();
+        let Some(cv) = self.cfg.carve.as_ref() else {
+            return (out, Vec::new());
+        };
+        let lines = self.lines(rays);
+        let hits = surface_hits(sdf, &lines, r, self.cfg.march_samples, self.cfg.refine, eps);
+        let min_cos = self.cfg.min_cos as f64;
+        let swept: Vec<Option<Option<(f64, f64)>>> = hits
+            .par_iter()
+            .enumerate()
+            .map(|(k, hit)| {
+                let hit = (*hit)?;
+                let d = lines[k].1;
+                let gl = dot(hit.grad, hit.grad).sqrt();
+                if gl.is_nan() || gl <= 0.0 || -dot(hit.grad, d) < min_cos * gl {
+                    return None;
+                }
+                let n = hit.grad.map(|g| g / gl);
+                let (v, px) = rays[k];
+                self.sweep(cv, v, px, hit.t, n)
+                    .map(|b| b.map(|tb| (hit.t, tb)))
+            })
+            .collect();
+        out.swept = swept.iter().flatten().count();
+        let dt = cv.range as f64 / cv.hypotheses as f64;
+        let plan: Vec<CarvedRay> = swept
+            .iter()
+            .enumerate()
+            .filter_map(|(k, s)| {
+                let (t, tb) = s.flatten()?;
+                let (o, d) = lines[k];
+                let at = |s: f64| [0, 1, 2].map(|q| o[q] + s * d[q]);
+                let end = (t + cv.span as f64 * (tb - t)).min(tb - 2.0 * dt);
+                let mut free = Vec::new();
+                let mut s = t;
+                while s <= end {
+                    free.push((at(s), (cv.tau as f64).min(0.5 * (tb - s))));
+                    s += dt;
+                }
+                Some(CarvedRay {
+                    t,
+                    t_b: tb,
+                    free,
+                    surface: at(tb),
+                })
+            })
+            .collect();
+        out.carved = plan.len();
+        if !plan.is_empty() {
+            out.mean_depth = plan.iter().map(|c| c.t_b - c.t).sum::<f64>() / plan.len() as f64;
+        }
+        (out, plan)
+    }
+}
+
+/// One ray the depth sweep carves ([`CarveConfig`]); points in the normalised frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CarvedRay {
+    /// The surface point's distance `t*` along the unit ray.
+    pub t: f64,
+    /// The best hypothesis's distance `t_b`.
+    pub t_b: f64,
+    /// The carved span's points and the SDF the hinge asks for at each.
+    pub free: Vec<([f64; 3], f64)>,
+    /// The point at `t_b`.
+    pub surface: [f64; 3],
+}
+
+/// The carving loss on fixed points (the plan's positions are held, as the sample points of
+/// the other SDF priors are): `L = weight · mean over rays of (mean over the ray's free points
+/// of max(0, τ − f) + surface_weight·|f(x_b)|)`; `∂L/∂θ` added into `grads` (SDF network and
+/// hash grid only). `sdf` evaluates the field at points in the precision of `params`. Returns
+/// `L` (0 for an empty plan).
+pub fn carve_loss_grad<T: Real>(
+    cv: &CarveConfig,
+    model: &NeusModel,
+    params: &[T],
+    sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
+    plan: &[CarvedRay],
+    active: usize,
+    grads: &mut [T],
+) -> f64 {
+    if plan.is_empty() {
+        return 0.0;
+    }
+    let mut pts: Vec<[f64; 3]> = Vec::new();
+    for c in plan {
+        pts.extend(c.free.iter().map(|(x, _)| *x));
+        pts.push(c.surface);
+    }
+    let f = sdf(&pts);
+    let w = cv.weight as f64 / plan.len() as f64;
+    let mut loss = 0.0;
+    let mut wts = Vec::with_capacity(pts.len());
+    let mut i = 0;
+    for c in plan {
+        let m = w / c.free.len().max(1) as f64;
+        for &(_, tau) in &c.free {
+            let fv = f[i];
+            i += 1;
+            if fv < tau {
+                loss += m * (tau - fv);
+                wts.push(T::from_f64(-m));
+            } else {
+                wts.push(T::ZERO);
+            }
+        }
+        let fv = f[i];
+        i += 1;
+        let ms = w * cv.surface_weight as f64;
+        loss += ms * fv.abs();
+        wts.push(T::from_f64(ms * fv.signum()));
+    }
+    let pts: Vec<[T; 3]> = pts.iter().map(|x| x.map(T::from_f64)).collect();
+    model.sdf_weighted_grad(params, &pts, &wts, active, grads);
+    loss
 }
 
 /// A ray's first surface crossing: distance `t` along the unit direction, and the SDF gradient
@@ -831,6 +1218,73 @@ mod tests {
             .is_none());
     }
 
+    /// The depth sweep, on the textured plane `z = 0` seen by four views from `z ≈ 2`: a false
+    /// sheet at `z = 0.8` (the field `f = z − 0.8`; 8–17 pixels of disparity between the views,
+    /// so its patches do not match) is carved down to the plane, every carved point
+    /// lies in the empty space above it, and the true field (`f = z`) is left alone.
+    #[test]
+    fn carve_sweep_finds_the_true_plane_behind_a_false_sheet_and_spares_the_truth() {
+        let cv = CarveConfig {
+            range: 1.2,
+            hypotheses: 120,
+            top_k: 2,
+            ..Default::default()
+        };
+        let dt = cv.range as f64 / cv.hypotheses as f64;
+        let (p, cams) = prior(MultiViewConfig {
+            weight: 1.0,
+            sources: 3,
+            top_k: 3,
+            carve: Some(cv.clone()),
+            ..Default::default()
+        });
+        let rays: Vec<(usize, [u32; 2])> = (0..4)
+            .flat_map(|v| (0..5).map(move |i| (v, [36 + 6 * i, 30 + 4 * i])))
+            .collect();
+        let false_sheet = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2] - 0.8).collect::<Vec<_>>();
+        let (out, plan) = p.carve_plan(3.0, &false_sheet, 1e-5, &rays);
+        assert_eq!(
+            out.swept,
+            rays.len(),
+            "every false patch costs more than min_gain"
+        );
+        assert!(
+            plan.len() >= rays.len() - 2,
+            "{} of {} carved",
+            plan.len(),
+            rays.len()
+        );
+        for c in &plan {
+            assert!(
+                c.surface[2].abs() < 1.5 * dt,
+                "best hypothesis at z {}",
+                c.surface[2]
+            );
+            assert!(!c.free.is_empty() && c.t_b > c.t);
+            for &(x, tau) in &c.free {
+                assert!(
+                    x[2] > 0.0 && x[2] <= 0.8 + 1e-6,
+                    "carved point at z {}",
+                    x[2]
+                );
+                assert!(tau > 0.0 && tau <= cv.tau as f64 + 1e-12);
+            }
+        }
+        assert!(
+            (out.mean_depth - plan.iter().map(|c| c.t_b - c.t).sum::<f64>() / plan.len() as f64)
+                .abs()
+                < 1e-12
+        );
+        // The truth: its patches match, so nothing is swept or carved.
+        let truth = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2]).collect::<Vec<_>>();
+        let (out, plan) = p.carve_plan(3.0, &truth, 1e-5, &rays);
+        assert_eq!((out.swept, plan.len()), (0, 0), "{out:?}");
+        // Without a carve section: nothing at all.
+        let (p0, _) = prior(MultiViewConfig::default());
+        assert!(p0.carve_plan(3.0, &false_sheet, 1e-5, &rays).1.is_empty());
+        let _ = cams;
+    }
+
     #[test]
     fn surface_search_finds_the_first_crossing() {
         // Two spheres along the x axis: the ray from −3 meets the nearer one first.
@@ -910,6 +1364,28 @@ mod tests {
         for (c, k) in bad.iter().zip(keys) {
             let (key, _, _) = c.invalid().expect("refused");
             assert_eq!(key, format!("train.multiview.{k}"));
+        }
+        let carve = |c: CarveConfig| MultiViewConfig {
+            carve: Some(c),
+            ..Default::default()
+        };
+        assert!(carve(CarveConfig::default()).invalid().is_none());
+        type Edit = fn(&mut CarveConfig);
+        let edits: [(&str, Edit); 8] = [
+            ("weight", |c| c.weight = -1.0),
+            ("top_k", |c| c.top_k = 9),
+            ("hypotheses", |c| c.hypotheses = 1),
+            ("range", |c| c.range = f32::NAN),
+            ("max_cost", |c| c.max_cost = 0.0),
+            ("min_gain", |c| c.min_gain = -0.1),
+            ("span", |c| c.span = 0.0),
+            ("tau", |c| c.tau = 0.0),
+        ];
+        for (k, edit) in edits {
+            let mut c = CarveConfig::default();
+            edit(&mut c);
+            let (key, _, _) = carve(c).invalid().expect("refused");
+            assert_eq!(key, format!("train.multiview.carve.{k}"));
         }
     }
 
