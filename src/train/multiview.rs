@@ -657,12 +657,20 @@ impl MultiViewPrior {
                 .collect()
         };
         let eps = model.fd_eps(active);
-        let (mut out, _) =
-            self.loss_grad(weight, model, params, &sdf, active, eps, &rays, None, grads);
+        let (mut out, _, hits) =
+            self.loss_grad_hits(weight, model, params, &sdf, active, eps, &rays, None, grads);
         if let Some(cv) = cfg.carve.as_ref() {
             if cv.weight > 0.0 && step >= cv.start_step && cv.end_step.is_none_or(|e| step <= e) {
-                let carve_rays = first(cv.rays);
-                out.carve = self.carve_grad(model, params, &sdf, active, eps, &carve_rays, grads);
+                // The carve's rays are the first `cv.rays` of the same list: when they are no
+                // more than the prior's, its crossings are theirs.
+                out.carve = if cv.rays <= cfg.rays {
+                    let n = cv.rays.min(rays.len());
+                    let (r, h) = (&rays[..n], &hits[..n]);
+                    self.carve_grad(model, params, &sdf, active, eps, r, Some(h), grads)
+                } else {
+                    let carve_rays = first(cv.rays);
+                    self.carve_grad(model, params, &sdf, active, eps, &carve_rays, None, grads)
+                };
             }
         }
         Some(out)
@@ -688,6 +696,26 @@ impl MultiViewPrior {
         normals: Option<&[Option<[f64; 3]>]>,
         grads: &mut [T],
     ) -> (MultiViewStep, Vec<Option<[f64; 3]>>) {
+        let (out, used, _) = self.loss_grad_hits(
+            weight, model, params, sdf, active, eps, rays, normals, grads,
+        );
+        (out, used)
+    }
+
+    /// [`Self::loss_grad`], also returning each ray's surface crossing (the carving reuses them).
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
+    fn loss_grad_hits<T: Real>(
+        &self,
+        weight: f64,
+        model: &NeusModel,
+        params: &[T],
+        sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
+        active: usize,
+        eps: f64,
+        rays: &[(usize, [u32; 2])],
+        normals: Option<&[Option<[f64; 3]>]>,
+        grads: &mut [T],
+    ) -> (MultiViewStep, Vec<Option<[f64; 3]>>, Vec<Option<Hit>>) {
         let cfg = &self.cfg;
         let lines = self.lines(rays);
         let r = model.config.render.radius;
@@ -726,7 +754,7 @@ impl MultiViewPrior {
         };
         let used_normals = costs.iter().map(|c| c.map(|c| c.3)).collect();
         if used.is_empty() {
-            return (out, used_normals);
+            return (out, used_normals, hits);
         }
         let nu = used.len() as f64;
         let w = weight / nu;
@@ -737,7 +765,7 @@ impl MultiViewPrior {
         let wts: Vec<T> = used.iter().map(|u| T::from_f64(-w * u.1)).collect();
         model.sdf_weighted_grad(params, &pts, &wts, active, grads);
         out.seconds[2] = clock.elapsed().as_secs_f64() - t_search - t_patch;
-        (out, used_normals)
+        (out, used_normals, hits)
     }
 }
 
@@ -786,10 +814,11 @@ impl MultiViewPrior {
     }
 
     /// The depth-sweep carving ([`CarveConfig`]) on explicit rays, its gradient added into
-    /// `grads` (arguments as [`Self::loss_grad`]): [`Self::carve_plan`], then
-    /// [`carve_loss_grad`]. Does nothing without a `carve` section.
+    /// `grads` (arguments as [`Self::loss_grad`]; `hits`: the rays' surface crossings when the
+    /// prior already found them): the plan of [`Self::carve_plan`], then [`carve_loss_grad`].
+    /// Does nothing without a `carve` section.
     #[allow(clippy::too_many_arguments)]
-    pub fn carve_grad<T: Real>(
+    fn carve_grad<T: Real>(
         &self,
         model: &NeusModel,
         params: &[T],
@@ -797,12 +826,23 @@ impl MultiViewPrior {
         active: usize,
         eps: f64,
         rays: &[(usize, [u32; 2])],
+        hits: Option<&[Option<Hit>]>,
         grads: &mut [T],
     ) -> CarveStep {
         let Some(cv) = self.cfg.carve.as_ref() else {
             return CarveStep::default();
         };
-        let (mut out, plan) = self.carve_plan(model.config.render.radius, sdf, eps, rays);
+        let lines = self.lines(rays);
+        let found;
+        let hits = match hits {
+            Some(h) => h,
+            None => {
+                let r = model.config.render.radius;
+                found = surface_hits(sdf, &lines, r, self.cfg.march_samples, self.cfg.refine, eps);
+                &found
+            }
+        };
+        let (mut out, plan) = self.carve_plan_from(cv, &lines, hits, rays);
         if !plan.is_empty() {
             out.loss = carve_loss_grad(cv, model, params, sdf, &plan, active, grads);
         }
@@ -818,12 +858,23 @@ impl MultiViewPrior {
         eps: f64,
         rays: &[(usize, [u32; 2])],
     ) -> (CarveStep, Vec<CarvedRay>) {
-        let mut out = CarveStep::default();
         let Some(cv) = self.cfg.carve.as_ref() else {
-            return (out, Vec::new());
+            return (CarveStep::default(), Vec::new());
         };
         let lines = self.lines(rays);
         let hits = surface_hits(sdf, &lines, r, self.cfg.march_samples, self.cfg.refine, eps);
+        self.carve_plan_from(cv, &lines, &hits, rays)
+    }
+
+    /// [`Self::carve_plan`] from the rays' unit lines and surface crossings.
+    fn carve_plan_from(
+        &self,
+        cv: &CarveConfig,
+        lines: &[([f64; 3], [f64; 3])],
+        hits: &[Option<Hit>],
+        rays: &[(usize, [u32; 2])],
+    ) -> (CarveStep, Vec<CarvedRay>) {
+        let mut out = CarveStep::default();
         let min_cos = self.cfg.min_cos as f64;
         let swept: Vec<Option<Option<(f64, f64)>>> = hits
             .par_iter()
