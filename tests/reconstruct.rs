@@ -514,20 +514,28 @@ fn unseen_prior_runs_is_deterministic_and_reported() {
         .contains("[train.unseen]"));
 }
 
-/// The multi-view patch consistency (`train.multiview`, issue 13): on from step 8 of 24, the
-/// tiny run finishes, the same seed gives the same mesh bytes, the mesh differs from a run
-/// without it (its gradient reaches the field), `metrics.json` says what it did at the last
-/// step, and bad values are refused by name.
-#[test]
-fn multiview_prior_runs_is_deterministic_and_reported() {
+/// The tiny scene run without, then twice with, the config text `section` (an opt-in prior).
+struct PriorRuns {
+    tmp: tempfile::TempDir,
+    /// The config with the section.
+    cfg: std::path::PathBuf,
+    /// The first run with it.
+    with_dir: std::path::PathBuf,
+    /// Its `mesh.ply` bytes and `metrics.json`.
+    mesh: Vec<u8>,
+    m: serde_json::Value,
+    /// `metrics.json` of the run without it.
+    plain: serde_json::Value,
+}
+
+/// [`PriorRuns`]: the two runs with the section give the same mesh bytes (same seed), and a
+/// mesh other than the run without it (the prior's gradient reaches the field).
+fn prior_runs(section: &str) -> PriorRuns {
     let tmp = tempfile::tempdir().unwrap();
     let plain = write_config(tmp.path(), "");
     let p = tmp.path().join("plain");
     ok(&reconstruct(&plain, &p, &[]));
-    let cfg = write_config(
-        tmp.path(),
-        "[train.multiview]\nweight = 0.5\nstart_step = 8\nrays = 64\n",
-    );
+    let cfg = write_config(tmp.path(), section);
     let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
     ok(&reconstruct(&cfg, &a, &[]));
     ok(&reconstruct(&cfg, &b, &[]));
@@ -538,8 +546,33 @@ fn multiview_prior_runs_is_deterministic_and_reported() {
         "same seed, same mesh bytes"
     );
     assert_ne!(mesh, std::fs::read(p.join("mesh.ply")).unwrap());
-    let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(a.join("metrics.json")).unwrap()).unwrap();
+    let json = |d: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("metrics.json")).unwrap()).unwrap()
+    };
+    PriorRuns {
+        m: json(&a),
+        plain: json(&p),
+        tmp,
+        cfg,
+        with_dir: a,
+        mesh,
+    }
+}
+
+/// The multi-view patch consistency (`train.multiview`, issue 13): on from step 8 of 24, the
+/// tiny run finishes, the same seed gives the same mesh bytes, the mesh differs from a run
+/// without it (its gradient reaches the field), `metrics.json` says what it did at the last
+/// step, and bad values are refused by name.
+#[test]
+fn multiview_prior_runs_is_deterministic_and_reported() {
+    let PriorRuns {
+        tmp,
+        mesh,
+        m,
+        plain: pm,
+        with_dir: a,
+        ..
+    } = prior_runs("[train.multiview]\nweight = 0.5\nstart_step = 8\nrays = 64\n");
     let u = &m["train"]["multiview_last"];
     let (rays, hits, used) = (
         u["rays"].as_u64().unwrap(),
@@ -577,8 +610,6 @@ fn multiview_prior_runs_is_deterministic_and_reported() {
         "{ru}"
     );
     assert_ne!(mesh, std::fs::read(r.join("mesh.ply")).unwrap());
-    let pm: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(p.join("metrics.json")).unwrap()).unwrap();
     assert!(
         pm["train"].get("multiview_last").is_none(),
         "absent when off"
@@ -780,4 +811,77 @@ fn the_visibility_cut_is_a_switch_and_leaves_no_stale_closed_mesh() {
         Some(written.faces.len() as u64),
         m["mesh"]["faces"].as_u64()
     );
+}
+
+/// The depth prior from stereo (`train.depth`, issue 13): on from step 8 of 24, the tiny run
+/// finishes, the same seed gives the same mesh bytes, the mesh differs from a run without it,
+/// `metrics.json` says what the stereo found and what the prior did at the last step, a run
+/// without masks still runs it (over every pixel), and bad values are refused by name.
+#[test]
+fn depth_prior_runs_is_deterministic_and_reported() {
+    let PriorRuns {
+        tmp,
+        cfg,
+        m,
+        plain: pm,
+        with_dir: a,
+        ..
+    } = prior_runs(
+        "[train.depth]\nweight = 5.0\nstart_step = 8\nrays = 64\n[train.depth.mvs]\nplanes = 32\n",
+    );
+    let maps = &m["train"]["depth_maps"];
+    let (considered, with, filled) = (
+        maps["considered"].as_u64().unwrap(),
+        maps["with_depth"].as_u64().unwrap(),
+        maps["filled"].as_u64().unwrap(),
+    );
+    assert!(
+        considered > 0 && with > 0 && with <= considered && filled <= with,
+        "{maps}"
+    );
+    let d = &m["train"]["depth_last"];
+    let (rays, with_depth, carved) = (
+        d["rays"].as_u64().unwrap(),
+        d["with_depth"].as_u64().unwrap(),
+        d["carved"].as_u64().unwrap(),
+    );
+    assert!(
+        rays <= 64 && with_depth <= rays && carved <= with_depth,
+        "{d}"
+    );
+    let loss = d["loss"].as_f64().unwrap();
+    assert!(loss.is_finite() && loss >= 0.0, "{d}");
+    assert!(std::fs::read_to_string(a.join("config.toml"))
+        .unwrap()
+        .contains("[train.depth]"));
+    assert!(pm["train"].get("depth_maps").is_none(), "absent when off");
+    assert!(pm["train"].get("depth_last").is_none(), "absent when off");
+    // No masks: the stereo looks at every pixel of every training view.
+    let nm = tmp.path().join("nomask");
+    ok(&reconstruct(&cfg, &nm, &["--set", "data.masks=false"]));
+    let mm: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(nm.join("metrics.json")).unwrap()).unwrap();
+    let nmaps = &mm["train"]["depth_maps"];
+    assert!(
+        nmaps["considered"].as_u64().unwrap() > considered,
+        "{nmaps} against {maps}"
+    );
+    for (set, words) in [
+        (
+            "train.depth.mvs.top_k=9",
+            ["train.depth.mvs.top_k", "sources"],
+        ),
+        ("train.depth.spacing=0", ["train.depth.spacing", "positive"]),
+        (
+            "train.depth.mvs.fuse_radius=-1",
+            ["train.depth.mvs.fuse_radius", "[0, 8]"],
+        ),
+    ] {
+        fails_with(
+            "",
+            &["--set", "train.depth.weight=5", "--set", set],
+            None,
+            &words,
+        );
+    }
 }

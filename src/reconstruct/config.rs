@@ -342,6 +342,9 @@ impl RunConfig {
         if let Some((key, value, why)) = t.multiview.invalid() {
             return Err(invalid(key, value, why));
         }
+        if let Some((key, value, why)) = t.depth.invalid() {
+            return Err(invalid(key, value, why));
+        }
         if t.unseen.enabled() && !self.data.masks {
             return Err(invalid(
                 "train.unseen.weight",

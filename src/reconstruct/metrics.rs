@@ -100,6 +100,12 @@ pub struct TrainSummary {
     /// The multi-view patch consistency at the last step (`train.multiview`); absent when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub multiview_last: Option<crate::train::multiview::MultiViewStep>,
+    /// The stereo of the depth prior (`train.depth`); absent when off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_maps: Option<crate::train::depth::DepthMapsSummary>,
+    /// The depth prior at the last step (`train.depth`); absent when off or past its end step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_last: Option<crate::train::depth::DepthStep>,
     /// Error-map sampling at the end of training (`train.error_map`); absent when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error_map: Option<crate::train::error_map::ErrorMapSummary>,

@@ -50,6 +50,7 @@ use crate::scene::{GrayImage, LoadOptions, RgbImage, Scene, SceneError};
 use crate::sim::{self, SimError};
 use crate::train::checkpoint::{self, CheckpointError, TrainState};
 use crate::train::data::{camera_rays, DataError};
+use crate::train::depth::{self as depth_prior, DepthPrior};
 use crate::train::hull::{self, HullError, HullSdf, InitKind};
 use crate::train::metrics::{psnr, ssim};
 use crate::train::multiview::MultiViewPrior;
@@ -548,6 +549,44 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             data.views(),
         ));
     }
+    let mut depth_maps = None;
+    if cfg.train.depth.enabled() {
+        let t_mvs = Instant::now();
+        say(
+            quiet,
+            format!(
+                "depth prior: plane-sweep stereo of {} views ({} planes)",
+                cameras.len(),
+                cfg.train.depth.mvs.planes
+            ),
+        );
+        let maps =
+            depth_prior::depth_maps(&cfg.train.depth.mvs, &cameras, data.views(), data.masks());
+        let summary = maps.summary(t_mvs.elapsed().as_secs_f64());
+        say(
+            quiet,
+            format!(
+                "depth prior: depth on {} of {} pixels ({:.1} %; {} by the fusion fill) in {:.1} s",
+                summary.with_depth,
+                summary.considered,
+                100.0 * summary.with_depth as f64 / summary.considered.max(1) as f64,
+                summary.filled,
+                summary.seconds
+            ),
+        );
+        if summary.with_depth == 0 {
+            say(
+                false,
+                "warning: the depth prior found no depth (no texture, or no view overlap): it does nothing",
+            );
+        }
+        depth_maps = Some(summary);
+        trainer = trainer.with_depth_prior(DepthPrior::new(
+            cfg.train.depth.clone(),
+            cameras.clone(),
+            maps,
+        ));
+    }
     let mut hull_init = None;
     let mut state: TrainState = match resumed {
         Some(s) => {
@@ -623,10 +662,16 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 m.mean_cost, m.used, m.rays
             )
         });
+        let depth_note = report.depth.map_or(String::new(), |d| {
+            format!(
+                " depth on {}/{} rays, carved {}",
+                d.with_depth, d.rays, d.carved
+            )
+        });
         progress.update(
             state.step,
             format!(
-                "loss {:.4} psnr {:.2} inv_s {:.0} rays/s {:.0}{unseen_note}{mv_note}",
+                "loss {:.4} psnr {:.2} inv_s {:.0} rays/s {:.0}{unseen_note}{mv_note}{depth_note}",
                 report.out.total,
                 -10.0 * report.out.mse_all.max(1e-12).log10(),
                 report.out.inv_s,
@@ -669,6 +714,8 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         photo_carve,
         unseen_last: last.as_ref().and_then(|r| r.unseen),
         multiview_last: last.as_ref().and_then(|r| r.multiview),
+        depth_maps,
+        depth_last: last.as_ref().and_then(|r| r.depth),
         error_map: state.error_map.as_ref().map(|m| m.summary()),
     };
     say(

@@ -160,6 +160,11 @@ impl TrainData {
         self.cameras.len()
     }
 
+    /// The masks, in camera order (`None`: the run has none).
+    pub fn masks(&self) -> Option<&[GrayImage]> {
+        self.masks.as_deref()
+    }
+
     /// Whether the mask loss can be used.
     pub fn has_masks(&self) -> bool {
         self.masks.is_some()

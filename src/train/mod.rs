@@ -7,6 +7,7 @@
 pub mod adam;
 pub mod checkpoint;
 pub mod data;
+pub mod depth;
 pub mod error_map;
 pub mod hull;
 pub mod loss;

@@ -640,22 +640,9 @@ impl MultiViewPrior {
             return None;
         }
         let weight = cfg.weight_at(step, iterations) as f64;
-        let first = |count: usize| -> Vec<(usize, [u32; 2])> {
-            (0..batch.len())
-                .filter(|&i| batch.mask.get(i).is_none_or(|&m| m >= 0.5))
-                .take(count)
-                .map(|i| (batch.views[i] as usize, batch.pixels[i]))
-                .collect()
-        };
+        let first = |count: usize| masked_rays(batch, count);
         let rays = first(cfg.rays);
-        let sdf = |pts: &[[f64; 3]]| -> Vec<f64> {
-            let p32: Vec<[f32; 3]> = pts.iter().map(|p| p.map(|v| v as f32)).collect();
-            model
-                .sdf(params, &p32, active)
-                .into_iter()
-                .map(|v| v as f64)
-                .collect()
-        };
+        let sdf = sdf_f64(model, params, active);
         let eps = model.fd_eps(active);
         let (mut out, _, hits) =
             self.loss_grad_hits(weight, model, params, &sdf, active, eps, &rays, None, grads);
@@ -987,12 +974,40 @@ pub fn carve_loss_grad<T: Real>(
     loss
 }
 
+/// The first `count` rays of `batch` inside the mask (all of them without masks), as
+/// `(view, [x, y])`.
+pub(crate) fn masked_rays(batch: &Batch, count: usize) -> Vec<(usize, [u32; 2])> {
+    (0..batch.len())
+        .filter(|&i| batch.mask.get(i).is_none_or(|&m| m >= 0.5))
+        .take(count)
+        .map(|i| (batch.views[i] as usize, batch.pixels[i]))
+        .collect()
+}
+
+/// The field's SDF (channel 0, `active` hash levels) at f64 points, evaluated in f32.
+pub(crate) fn sdf_f64<'a>(
+    model: &'a NeusModel,
+    params: &'a [f32],
+    active: usize,
+) -> impl Fn(&[[f64; 3]]) -> Vec<f64> + 'a {
+    move |pts: &[[f64; 3]]| -> Vec<f64> {
+        let p32: Vec<[f32; 3]> = pts.iter().map(|p| p.map(|v| v as f32)).collect();
+        model
+            .sdf(params, &p32, active)
+            .into_iter()
+            .map(|v| v as f64)
+            .collect()
+    }
+}
+
 /// A ray's first surface crossing: distance `t` along the unit direction, and the SDF gradient
 /// there (central differences).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Hit {
-    t: f64,
-    grad: [f64; 3],
+pub(crate) struct Hit {
+    /// Distance along the unit ray.
+    pub(crate) t: f64,
+    /// The SDF gradient there (central differences).
+    pub(crate) grad: [f64; 3],
 }
 
 /// The first `+ → −` crossing of `sdf` along each ray `(o, d)` (unit `d`) inside the box
@@ -1000,7 +1015,7 @@ struct Hit {
 /// Illinois steps on the bracket, then the gradient by central differences of step `eps`.
 /// `sdf` evaluates a batch of points. `None` for a ray that misses the box, starts inside
 /// (`f < 0` at its first sample) or finds no crossing.
-fn surface_hits(
+pub(crate) fn surface_hits(
     sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
     rays: &[([f64; 3], [f64; 3])],
     r: f32,
@@ -1113,13 +1128,13 @@ fn surface_hits(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::Vector3;
 
     /// A camera at `c` looking at `target`, `w×h` pixels, focal `f` pixels (`sim::rig::look_at`,
     /// with `+z` up).
-    fn look_at(c: Vector3<f64>, target: Vector3<f64>, w: u32, h: u32, f: f64) -> Camera {
+    pub(crate) fn look_at(c: Vector3<f64>, target: Vector3<f64>, w: u32, h: u32, f: f64) -> Camera {
         let k = crate::sim::rig::centred_intrinsics(f, w, h);
         crate::sim::rig::look_at(c, target, Vector3::z(), k, w, h)
     }
@@ -1130,7 +1145,7 @@ mod tests {
     }
 
     /// The image of the textured plane `z = 0` from `cam` (grey in every channel).
-    fn render_plane(cam: &Camera) -> RgbImage {
+    pub(crate) fn render_plane(cam: &Camera) -> RgbImage {
         let mut img = RgbImage::new(cam.width as usize, cam.height as usize);
         for y in 0..cam.height as usize {
             for x in 0..cam.width as usize {
@@ -1164,7 +1179,7 @@ mod tests {
     }
 
     /// The true distance along the ray of view 0 through pixel `(u, v)` to the plane `z = 0`.
-    fn true_t(cam: &Camera, u: f64, v: f64) -> f64 {
+    pub(crate) fn true_t(cam: &Camera, u: f64, v: f64) -> f64 {
         let (o, d) = cam.ray(u, v);
         -o.z / d.z
     }

@@ -5,6 +5,7 @@
 use super::adam::{AdamW, AdamWConfig, OptimError};
 use super::checkpoint::TrainState;
 use super::data::{Batch, TrainData};
+use super::depth::{DepthConfig, DepthPrior, DepthStep};
 use super::error_map::{ErrorMap, ErrorMapConfig};
 use super::hull::InitConfig;
 use super::loss::{StepOutput, Targets, TrainStep};
@@ -45,6 +46,10 @@ pub struct TrainConfig {
     /// [`super::multiview`]).
     #[serde(skip_serializing_if = "MultiViewConfig::is_default")]
     pub multiview: MultiViewConfig,
+    /// Depth prior from multi-view stereo (`[train.depth]`; off by default, see
+    /// [`super::depth`]).
+    #[serde(skip_serializing_if = "DepthConfig::is_default")]
+    pub depth: DepthConfig,
 }
 
 impl Default for TrainConfig {
@@ -59,6 +64,7 @@ impl Default for TrainConfig {
             unseen: UnseenConfig::default(),
             error_map: ErrorMapConfig::default(),
             multiview: MultiViewConfig::default(),
+            depth: DepthConfig::default(),
         }
     }
 }
@@ -100,6 +106,8 @@ pub struct StepReport {
     pub unseen: Option<UnseenStep>,
     /// What the multi-view prior did (`None` when off or before its start step).
     pub multiview: Option<MultiViewStep>,
+    /// What the depth prior did (`None` when off or outside its steps).
+    pub depth: Option<DepthStep>,
 }
 
 /// Independent random streams of a step.
@@ -136,6 +144,7 @@ pub struct Trainer<'a> {
     consecutive_skips: u32,
     unseen: Option<UnseenPrior>,
     multiview: Option<MultiViewPrior>,
+    depth: Option<DepthPrior>,
     /// `[rays]` per-ray colour errors of the step (error-map sampling only).
     ray_errors: Vec<AtomicU32>,
 }
@@ -160,6 +169,7 @@ impl<'a> Trainer<'a> {
             consecutive_skips: 0,
             unseen: None,
             multiview: None,
+            depth: None,
             ray_errors: Vec::new(),
         }
     }
@@ -175,6 +185,13 @@ impl<'a> Trainer<'a> {
     /// step from its start step on.
     pub fn with_multiview_prior(mut self, prior: MultiViewPrior) -> Self {
         self.multiview = Some(prior);
+        self
+    }
+
+    /// Adds the depth prior (`config.depth`, [`super::depth`]) to every step from its start step
+    /// to its end step.
+    pub fn with_depth_prior(mut self, prior: DepthPrior) -> Self {
+        self.depth = Some(prior);
         self
     }
 
@@ -273,6 +290,16 @@ impl<'a> Trainer<'a> {
                 &mut self.grads,
             )
         });
+        let depth = self.depth.as_ref().and_then(|d| {
+            d.add_grad(
+                model,
+                &state.params,
+                step,
+                sched.active_levels,
+                &self.batch,
+                &mut self.grads,
+            )
+        });
         let lr_factor = self.config.lr.factor(step, self.config.iterations);
         let skipped = match state.adam.step_and_zero_grads(
             &mut state.params,
@@ -316,6 +343,7 @@ impl<'a> Trainer<'a> {
             occupancy_updated,
             unseen,
             multiview,
+            depth,
         })
     }
 }
