@@ -48,7 +48,7 @@
 
 use super::data::Batch;
 use super::multiview::{
-    carve_loss_grad, masked_rays, sdf_f64, surface_hits, CarveConfig, CarvedRay,
+    carve_loss_grad, masked_rays, ramp_weight, sdf_f64, surface_hits, CarveConfig, CarvedRay,
 };
 use crate::augment::luma;
 use crate::field::Real;
@@ -133,6 +133,10 @@ pub struct DepthConfig {
     /// Last step that applies it (absent: to the end).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub end_step: Option<u64>,
+    /// Weight at the run's last step: the weight goes linearly from `weight` at `start_step`
+    /// to this at the last step (absent: constant `weight`), as `train.multiview.final_weight`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub final_weight: Option<f32>,
     /// Rays per step: the first of the batch inside the mask (256).
     pub rays: usize,
     /// The SDF the hinge asks for in the free span, normalised units (0.01).
@@ -156,6 +160,7 @@ impl Default for DepthConfig {
             surface_weight: 0.2,
             start_step: 200,
             end_step: None,
+            final_weight: None,
             rays: 256,
             tau: 0.01,
             spacing: 0.00625,
@@ -183,6 +188,20 @@ impl DepthConfig {
         self.enabled() && step >= self.start_step && self.end_step.is_none_or(|e| step <= e)
     }
 
+    /// The weight at `step` of a run of `iterations` steps (0 where it does not apply).
+    pub fn weight_at(&self, step: u64, iterations: u64) -> f32 {
+        if !self.active_at(step) {
+            return 0.0;
+        }
+        ramp_weight(
+            self.weight,
+            self.final_weight,
+            self.start_step,
+            step,
+            iterations,
+        )
+    }
+
     /// The first invalid field, as `(key, value, why)`.
     pub fn invalid(&self) -> Option<(&'static str, String, &'static str)> {
         let pos = |v: f32| v.is_finite() && v > 0.0;
@@ -194,6 +213,12 @@ impl DepthConfig {
                 "train.depth.weight",
                 nonneg(self.weight),
                 &self.weight,
+                "must be ≥ 0",
+            ),
+            c(
+                "train.depth.final_weight",
+                self.final_weight.is_none_or(nonneg),
+                &self.final_weight.map_or("none".into(), |w| w.to_string()),
                 "must be ≥ 0",
             ),
             c(
@@ -557,7 +582,10 @@ fn sweep_view(cfg: &MvsConfig, views: &[View], i: usize, srcs: &[usize]) -> Vec<
         .collect();
     let np = pix.len();
     let ns = srcs.len();
-    let mut cost = vec![f32::NAN; np * cfg.planes];
+    // Per pixel, streamed over the planes (no `pixels × planes` table: 1 GB for a 1600 × 1200
+    // view): the best cost, its plane, the costs of the planes either side, and the last cost.
+    let mut best = vec![(f32::INFINITY, usize::MAX, f32::NAN, f32::NAN); np];
+    let mut prev = vec![f32::NAN; np];
     let mut per = vec![f32::NAN; np * ns];
     let mut wv = vec![0f64; bw * bh];
     for pl in 0..cfg.planes {
@@ -607,27 +635,28 @@ fn sweep_view(cfg: &MvsConfig, views: &[View], i: usize, srcs: &[usize]) -> Vec<
                     .copied()
                     .filter(|c| c.is_finite()),
             );
-            if cs.len() < cfg.top_k {
-                continue;
+            let c = if cs.len() < cfg.top_k {
+                f32::NAN
+            } else {
+                cs.sort_by(|a, b| a.total_cmp(b));
+                cs[..cfg.top_k].iter().sum::<f32>() / cfg.top_k as f32
+            };
+            let b = &mut best[q];
+            if c < b.0 {
+                *b = (c, pl, prev[q], f32::NAN);
+            } else if pl > 0 && b.1 == pl - 1 {
+                b.3 = c;
             }
-            cs.sort_by(|a, b| a.total_cmp(b));
-            cost[q * cfg.planes + pl] = cs[..cfg.top_k].iter().sum::<f32>() / cfg.top_k as f32;
+            prev[q] = c;
         }
     }
     for (q, &(x, y)) in pix.iter().enumerate() {
-        let cq = &cost[q * cfg.planes..(q + 1) * cfg.planes];
-        let best = cq
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| c.is_finite())
-            .min_by(|a, b| a.1.total_cmp(b.1));
-        let Some((bp, &bc)) = best else { continue };
-        if bc > cfg.max_cost {
+        let (bc, bp, cm, cp) = best[q];
+        if bp == usize::MAX || bc > cfg.max_cost {
             continue;
         }
         let mut off = 0.0;
         if bp > 0 && bp + 1 < cfg.planes {
-            let (cm, cp) = (cq[bp - 1], cq[bp + 1]);
             let den = cm - 2.0 * bc + cp;
             if cm.is_finite() && cp.is_finite() && den > 1e-6 {
                 off = (0.5 * (cm - cp) / den).clamp(-0.5, 0.5) as f64;
@@ -874,10 +903,12 @@ impl DepthPrior {
         (step, plan)
     }
 
-    /// The loss on `plan` ([`super::multiview::carve_loss_grad`] at this prior's weights), its
-    /// gradient added into `grads`.
+    /// The loss on `plan` at the weight `weight` ([`super::multiview::carve_loss_grad`] with
+    /// this prior's surface weight and `tau`), its gradient added into `grads`.
+    #[allow(clippy::too_many_arguments)]
     pub fn loss_grad<T: Real>(
         &self,
+        weight: f32,
         model: &NeusModel,
         params: &[T],
         sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
@@ -886,7 +917,7 @@ impl DepthPrior {
         grads: &mut [T],
     ) -> f64 {
         let cv = CarveConfig {
-            weight: self.cfg.weight,
+            weight,
             surface_weight: self.cfg.surface_weight,
             tau: self.cfg.tau,
             ..CarveConfig::default()
@@ -894,12 +925,15 @@ impl DepthPrior {
         carve_loss_grad(&cv, model, params, sdf, plan, active, grads)
     }
 
-    /// One training step's part: `None` outside `[start_step, end_step]`.
+    /// One training step's part (step `step` of `iterations`): `None` outside
+    /// `[start_step, end_step]`.
+    #[allow(clippy::too_many_arguments)]
     pub fn add_grad(
         &self,
         model: &NeusModel,
         params: &[f32],
         step: u64,
+        iterations: u64,
         active: usize,
         batch: &Batch,
         grads: &mut [f32],
@@ -911,7 +945,8 @@ impl DepthPrior {
         let sdf = sdf_f64(model, params, active);
         let eps = model.fd_eps(active);
         let (mut out, plan) = self.plan(model.config.render.radius, &sdf, eps, &rays);
-        out.loss = self.loss_grad(model, params, &sdf, &plan, active, grads);
+        let weight = self.cfg.weight_at(step, iterations);
+        out.loss = self.loss_grad(weight, model, params, &sdf, &plan, active, grads);
         Some(out)
     }
 }
@@ -1296,6 +1331,16 @@ mod tests {
             ..Default::default()
         };
         assert!(!on.active_at(199) && on.active_at(200) && on.active_at(900) && !on.active_at(901));
+        // A ramp from 5 at step 200 to 1 at the last step (1000 of 1001), cut at `end_step`.
+        let ramp = DepthConfig {
+            final_weight: Some(1.0),
+            ..on.clone()
+        };
+        assert_eq!(ramp.weight_at(199, 1001), 0.0);
+        assert_eq!(ramp.weight_at(200, 1001), 5.0);
+        assert!((ramp.weight_at(600, 1001) - 3.0).abs() < 1e-6);
+        assert_eq!(ramp.weight_at(901, 1001), 0.0, "after end_step");
+        assert_eq!(on.weight_at(600, 1001), 5.0, "constant without a ramp");
         let bad = |f: &dyn Fn(&mut DepthConfig)| {
             let mut c = on.clone();
             f(&mut c);
@@ -1303,6 +1348,10 @@ mod tests {
         };
         assert_eq!(bad(&|c| c.weight = f32::NAN), Some("train.depth.weight"));
         assert_eq!(bad(&|c| c.rays = 0), Some("train.depth.rays"));
+        assert_eq!(
+            bad(&|c| c.final_weight = Some(-1.0)),
+            Some("train.depth.final_weight")
+        );
         assert_eq!(bad(&|c| c.margin = -1.0), Some("train.depth.margin"));
         assert_eq!(bad(&|c| c.mvs.top_k = 5), Some("train.depth.mvs.top_k"));
         assert_eq!(bad(&|c| c.mvs.planes = 1), Some("train.depth.mvs.planes"));

@@ -273,20 +273,16 @@ impl MultiViewConfig {
     /// The weight at `step` of a run of `iterations` steps (0 before `start_step`): `weight`,
     /// or the linear ramp to `final_weight` at step `iterations − 1`.
     pub fn weight_at(&self, step: u64, iterations: u64) -> f32 {
-        if !self.enabled() || step < self.start_step {
+        if !self.enabled() {
             return 0.0;
         }
-        match self.final_weight {
-            None => self.weight,
-            Some(end) => {
-                let last = iterations.saturating_sub(1);
-                if last <= self.start_step {
-                    return self.weight;
-                }
-                let f = (step.min(last) - self.start_step) as f64 / (last - self.start_step) as f64;
-                (self.weight as f64 + (end as f64 - self.weight as f64) * f) as f32
-            }
-        }
+        ramp_weight(
+            self.weight,
+            self.final_weight,
+            self.start_step,
+            step,
+            iterations,
+        )
     }
 
     /// The first invalid field, as `(key, value, why)`.
@@ -972,6 +968,31 @@ pub fn carve_loss_grad<T: Real>(
     let pts: Vec<[T; 3]> = pts.iter().map(|x| x.map(T::from_f64)).collect();
     model.sdf_weighted_grad(params, &pts, &wts, active, grads);
     loss
+}
+
+/// A loss weight at `step` of a run of `iterations` steps: 0 before `start`, then `weight`, or
+/// the linear ramp from `weight` at `start` to `end` at step `iterations − 1` when `end` is set.
+pub(crate) fn ramp_weight(
+    weight: f32,
+    end: Option<f32>,
+    start: u64,
+    step: u64,
+    iterations: u64,
+) -> f32 {
+    if step < start {
+        return 0.0;
+    }
+    match end {
+        None => weight,
+        Some(end) => {
+            let last = iterations.saturating_sub(1);
+            if last <= start {
+                return weight;
+            }
+            let f = (step.min(last) - start) as f64 / (last - start) as f64;
+            (weight as f64 + (end as f64 - weight as f64) * f) as f32
+        }
+    }
 }
 
 /// The first `count` rays of `batch` inside the mask (all of them without masks), as

@@ -295,6 +295,7 @@ impl<'a> Trainer<'a> {
                 model,
                 &state.params,
                 step,
+                self.config.iterations,
                 sched.active_levels,
                 &self.batch,
                 &mut self.grads,
