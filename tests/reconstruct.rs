@@ -830,13 +830,14 @@ fn depth_prior_runs_is_deterministic_and_reported() {
         "[train.depth]\nweight = 5.0\nstart_step = 8\nrays = 64\n[train.depth.mvs]\nplanes = 32\n",
     );
     let maps = &m["train"]["depth_maps"];
-    let (considered, with, filled) = (
+    let (considered, with, filled, holes) = (
         maps["considered"].as_u64().unwrap(),
         maps["with_depth"].as_u64().unwrap(),
         maps["filled"].as_u64().unwrap(),
+        maps["hole_filled"].as_u64().unwrap(),
     );
     assert!(
-        considered > 0 && with > 0 && with <= considered && filled <= with,
+        considered > 0 && with > 0 && with <= considered && filled + holes <= with,
         "{maps}"
     );
     let d = &m["train"]["depth_last"];

@@ -566,11 +566,12 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         say(
             quiet,
             format!(
-                "depth prior: depth on {} of {} pixels ({:.1} %; {} by the fusion fill) in {:.1} s",
+                "depth prior: depth on {} of {} pixels ({:.1} %; {} by the fusion fill, {} by the hole fill) in {:.1} s",
                 summary.with_depth,
                 summary.considered,
                 100.0 * summary.with_depth as f64 / summary.considered.max(1) as f64,
                 summary.filled,
+                summary.hole_filled,
                 summary.seconds
             ),
         );
