@@ -926,8 +926,8 @@ fn fill_holes(
                     break;
                 }
                 if z[q].is_finite() {
-                    let f = (dx * s) as f64;
-                    found.push((z[q] as f64, f, (dy * s) as f64, grey[q] as f64));
+                    let (ox, oy) = ((dx * s) as f64, (dy * s) as f64);
+                    found.push((z[q] as f64, ox, oy, grey[q] as f64));
                     break;
                 }
             }
@@ -940,8 +940,8 @@ fn fill_holes(
         let group = if far - found[found.len() - 1].0 <= jump * far {
             &found[..]
         } else {
-            // The groups from the farthest on; with `hole_grey_tol`, the first whose grey
-            // matches the pixel's best.
+            // The groups, farthest first: without the grey test the first; with it, the one
+            // whose mean grey lies nearest the pixel's (on a tie, the farther).
             let mut best: Option<(&[Found], f64)> = None;
             let mut a = 0;
             while a + 1 < found.len() {
