@@ -1769,6 +1769,22 @@ mod tests {
             bad(&|c| c.mvs.fuse_support = 0),
             Some("train.depth.mvs.fuse_support")
         );
+        assert_eq!(
+            bad(&|c| c.mvs.hole_radius = 65),
+            Some("train.depth.mvs.hole_radius")
+        );
+        assert_eq!(
+            bad(&|c| c.mvs.hole_jump = 0.0),
+            Some("train.depth.mvs.hole_jump")
+        );
+        assert_eq!(
+            bad(&|c| c.mvs.hole_tol = f32::NAN),
+            Some("train.depth.mvs.hole_tol")
+        );
+        assert_eq!(
+            bad(&|c| c.mvs.hole_grey_tol = -0.1),
+            Some("train.depth.mvs.hole_grey_tol")
+        );
         // TOML: a section with one key keeps every other default.
         let t: DepthConfig = toml::from_str("weight = 5.0\n[mvs]\nplanes = 64\n").unwrap();
         assert_eq!(t.mvs.planes, 64);
