@@ -50,6 +50,14 @@
 //!    1.70 to 1.27 mm at weight 5, though only about half the filled depths lie within 2 mm of
 //!    the truth (a plane through the border of a convex patch lies behind it)
 //!    (`results/geometry/depth-holes-2026-11-28`).
+//!    *Refit* (`hole_refine` rounds): a group is 2 to 8 depths, often all on one side of the
+//!    hole (behind the cup's rim: the floor found only upwards, where it lies farther), so its
+//!    plane extrapolates badly. Seeded by it, the plane is refitted to every depth of the
+//!    pixel's window within `hole_tol` of it, as RANSAC's consensus step; the result is kept
+//!    when it lies beyond the nearest depth found and within 5 % of the farthest. On `cup` the
+//!    filled depths within 2 mm of the truth go from 60 % to 79 % (inner wall) and 60 % to
+//!    76 % (outer wall); the cup goes from 1.27 to 1.19 mm at weight 5, seed 0, but from
+//!    1.24 to 1.27 at seed 1 (`results/geometry/hole-refit-2026-11-28`).
 //!
 //! **The loss** ([`DepthPrior`]): from `start_step` to `end_step`, the first `rays` masked rays
 //! of each batch whose pixel has a depth `t_d` find the field's first surface crossing `t*`
@@ -126,6 +134,13 @@ pub struct MvsConfig {
     /// weight 5, 0 against 0.1: thin 0.62 against 0.51 mm, blocks 0.79 against 0.72, cup 1.24
     /// against 1.27 (`results/geometry/depth-holes-2026-11-28`).
     pub hole_grey_tol: f32,
+    /// ... and the plane through the chosen depths is refitted this many rounds to every depth
+    /// of the pixel's `(2·hole_radius + 1)²` window within `hole_tol` of it (2; 0: no refit).
+    /// A group holds 2 to 8 depths, all at one side of a hole; the window holds the surface's
+    /// many other depths around it. On `cup` the share of filled depths within 2 mm of the
+    /// truth goes from 60 % to 79 % on the inner wall and from 60 % to 76 % on the outer wall
+    /// (`results/geometry/hole-refit-2026-11-28`).
+    pub hole_refine: usize,
 }
 
 impl Default for MvsConfig {
@@ -149,6 +164,7 @@ impl Default for MvsConfig {
             hole_jump: 0.02,
             hole_tol: 0.01,
             hole_grey_tol: 0.1,
+            hole_refine: 2,
         }
     }
 }
@@ -402,6 +418,12 @@ impl DepthConfig {
                 nonneg(m.hole_grey_tol),
                 &m.hole_grey_tol,
                 "must be ≥ 0",
+            ),
+            c(
+                "train.depth.mvs.hole_refine",
+                m.hole_refine <= 8,
+                &m.hole_refine,
+                "must be in 0..=8 (rounds)",
             ),
         ];
         let (key, _, value, why) = checks.into_iter().find(|c| !c.1)?;
@@ -970,20 +992,32 @@ fn fill_holes(
                 None => continue,
             }
         };
-        out[k] = plane_through(group) as f32;
+        let mut zk = plane_through(group);
+        if cfg.hole_refine > 0 {
+            let seed = fit_inverse_plane(group).unwrap_or(Vector3::new(0.0, 0.0, 1.0 / zk));
+            let near = found[found.len() - 1].0;
+            if let Some(zr) = refit_plane(cfg, w, h, mask, z, (x, y), seed) {
+                // A background depth lies beyond the occluder's, and no fill lies far behind
+                // everything it was found from.
+                if zr > near && zr < 1.05 * far {
+                    zk = zr;
+                }
+            }
+        }
+        out[k] = zk as f32;
         filled[k] = true;
     }
     (out, filled)
 }
 
-/// The camera `z` at offset `(0, 0)` of the plane `1/z = a·dx + b·dy + c` fitted (least squares)
-/// to `samples` `(z, dx, dy, _)`, when there are three or more, they span a plane, and the result
-/// lies within 1 % of their depth range; the samples' mean depth otherwise.
-fn plane_through(samples: &[Found]) -> f64 {
-    let n = samples.len() as f64;
-    let mean = samples.iter().map(|s| s.0).sum::<f64>() / n;
+/// Depths a refit needs inside its window.
+const REFIT_MIN_DEPTHS: usize = 8;
+
+/// The least-squares plane `1/z = a·dx + b·dy + c` (as `(a, b, c)`) through `samples` `(z, dx,
+/// dy, _)`, when there are three or more and they span a plane.
+fn fit_inverse_plane(samples: &[Found]) -> Option<Vector3<f64>> {
     if samples.len() < 3 {
-        return mean;
+        return None;
     }
     let mut ata = Matrix3::<f64>::zeros();
     let mut atb = Vector3::<f64>::zeros();
@@ -993,12 +1027,67 @@ fn plane_through(samples: &[Found]) -> f64 {
         atb += r / zz;
     }
     if ata.determinant().abs() <= 1e-6 {
-        return mean;
+        return None;
     }
-    let Some(inv) = ata.try_inverse() else {
+    ata.try_inverse().map(|m| m * atb)
+}
+
+/// The camera `z` at pixel `(x, y)` of the plane `seed` (`1/z = a·dx + b·dy + c`, offsets from
+/// `(x, y)` in pixels) refitted `cfg.hole_refine` rounds to the depths of `z` (camera `z`, NaN:
+/// none) inside `mask` within `cfg.hole_radius` pixels (a square window) that lie within
+/// `cfg.hole_tol` of the current plane: a consensus refit, as RANSAC's final step (Fischler &
+/// Bolles, CACM 1981). `None` when a round finds fewer than [`REFIT_MIN_DEPTHS`] or they do
+/// not span a plane.
+fn refit_plane(
+    cfg: &MvsConfig,
+    w: usize,
+    h: usize,
+    mask: &[bool],
+    z: &[f32],
+    (x, y): (isize, isize),
+    seed: Vector3<f64>,
+) -> Option<f64> {
+    let (wi, hi) = (w as isize, h as isize);
+    let (r, tol) = (cfg.hole_radius as isize, cfg.hole_tol as f64);
+    let mut p = seed;
+    for _ in 0..cfg.hole_refine {
+        let mut ata = Matrix3::<f64>::zeros();
+        let mut atb = Vector3::<f64>::zeros();
+        let mut n = 0;
+        for yy in (y - r).max(0)..=(y + r).min(hi - 1) {
+            for xx in (x - r).max(0)..=(x + r).min(wi - 1) {
+                let q = (yy * wi + xx) as usize;
+                let zq = z[q] as f64;
+                if !zq.is_finite() || !mask[q] {
+                    continue;
+                }
+                let row = Vector3::new((xx - x) as f64, (yy - y) as f64, 1.0);
+                let zp = 1.0 / p.dot(&row);
+                if zp > 0.0 && (zp - zq).abs() <= tol * zq {
+                    ata += row * row.transpose();
+                    atb += row / zq;
+                    n += 1;
+                }
+            }
+        }
+        if n < REFIT_MIN_DEPTHS || ata.determinant().abs() <= 1e-6 {
+            return None;
+        }
+        p = ata.try_inverse()? * atb;
+    }
+    let zz = 1.0 / p.z;
+    zz.is_finite().then_some(zz)
+}
+
+/// The camera `z` at offset `(0, 0)` of the plane `1/z = a·dx + b·dy + c` fitted (least squares)
+/// to `samples` `(z, dx, dy, _)`, when there are three or more, they span a plane, and the result
+/// lies within 1 % of their depth range; the samples' mean depth otherwise.
+fn plane_through(samples: &[Found]) -> f64 {
+    let mean = samples.iter().map(|s| s.0).sum::<f64>() / samples.len() as f64;
+    let Some(p) = fit_inverse_plane(samples) else {
         return mean;
     };
-    let zz = 1.0 / (inv * atb).z;
+    let zz = 1.0 / p.z;
     let lo = samples.iter().map(|s| s.0).fold(f64::INFINITY, f64::min);
     let hi = samples.iter().map(|s| s.0).fold(0.0, f64::max);
     if zz.is_finite() && zz >= 0.99 * lo && zz <= 1.01 * hi {
@@ -1280,6 +1369,65 @@ mod tests {
         assert!((0..w * h)
             .filter(|&k| z[k].is_finite())
             .all(|k| out[k] == z[k]));
+    }
+
+    #[test]
+    fn the_refit_extends_a_receding_background_to_the_occluder() {
+        // A background whose depth grows upwards (smaller y) above an occluder (z = 1.5, rows
+        // 25 and below); rows 18..=24 have no depth. From (20, 22) the background is found
+        // only along the three upward directions, all at row 17: collinear, so the group
+        // gives row 17's depth, farther than the truth. The refit fits the window's rows
+        // 12..=17 instead and continues the plane down to row 22.
+        let (w, h) = (40, 40);
+        let far = |_: f64, y: f64| 1.0 / (0.25 + 0.002 * y);
+        let z = zmap(
+            w,
+            h,
+            |x, y| if y >= 25.0 { 1.5 } else { far(x, y) },
+            |_, y| (18..=24).contains(&y),
+        );
+        let (mask, grey) = (vec![true; w * h], vec![0.5; w * h]);
+        let k = 22 * w + 20;
+        let want = far(20.0, 22.0);
+        let plain = MvsConfig {
+            hole_refine: 0,
+            ..MvsConfig::default()
+        };
+        let (group, f0) = fill_holes(&plain, w, h, &mask, &grey, &z);
+        assert!(f0[k]);
+        assert!(
+            (group[k] as f64 - far(20.0, 17.0)).abs() < 1e-5 * want,
+            "without the refit, row 17's depth: {} against {}",
+            group[k],
+            far(20.0, 17.0)
+        );
+        assert!(
+            (group[k] as f64 - want) > 0.03 * want,
+            "and behind the truth"
+        );
+        let cfg = MvsConfig::default();
+        assert_eq!(cfg.hole_refine, 2, "the refit is the default");
+        let (out, filled) = fill_holes(&cfg, w, h, &mask, &grey, &z);
+        assert!(filled[k]);
+        assert!(
+            (out[k] as f64 - want).abs() < 1e-5 * want,
+            "with the refit: {} against {want}",
+            out[k]
+        );
+        // Every filled pixel of the band lies on the background's plane.
+        for y in 18..=24 {
+            for x in 5..35 {
+                let q = y * w + x;
+                let want = far(x as f64, y as f64);
+                if filled[q] {
+                    assert!(
+                        (out[q] as f64 - want).abs() < 1e-4 * want,
+                        "({x}, {y}): {} against {want}",
+                        out[q]
+                    );
+                }
+            }
+        }
     }
 
     #[test]
@@ -1780,6 +1928,10 @@ mod tests {
         assert_eq!(
             bad(&|c| c.mvs.hole_tol = f32::NAN),
             Some("train.depth.mvs.hole_tol")
+        );
+        assert_eq!(
+            bad(&|c| c.mvs.hole_refine = 9),
+            Some("train.depth.mvs.hole_refine")
         );
         assert_eq!(
             bad(&|c| c.mvs.hole_grey_tol = -0.1),
