@@ -992,9 +992,10 @@ fn fill_holes(
                 None => continue,
             }
         };
-        let mut zk = plane_through(group);
+        let fit = fit_inverse_plane(group);
+        let mut zk = plane_through(group, fit);
         if cfg.hole_refine > 0 {
-            let seed = fit_inverse_plane(group).unwrap_or(Vector3::new(0.0, 0.0, 1.0 / zk));
+            let seed = fit.unwrap_or(Vector3::new(0.0, 0.0, 1.0 / zk));
             let near = found[found.len() - 1].0;
             if let Some(zr) = refit_plane(cfg, w, h, mask, z, (x, y), seed) {
                 // A background depth lies beyond the occluder's, and no fill lies far behind
@@ -1079,12 +1080,12 @@ fn refit_plane(
     zz.is_finite().then_some(zz)
 }
 
-/// The camera `z` at offset `(0, 0)` of the plane `1/z = a·dx + b·dy + c` fitted (least squares)
-/// to `samples` `(z, dx, dy, _)`, when there are three or more, they span a plane, and the result
-/// lies within 1 % of their depth range; the samples' mean depth otherwise.
-fn plane_through(samples: &[Found]) -> f64 {
+/// The camera `z` at offset `(0, 0)` of `fit`, the plane [`fit_inverse_plane`] gives for
+/// `samples` `(z, dx, dy, _)`, when there is one and the result lies within 1 % of their depth
+/// range; the samples' mean depth otherwise.
+fn plane_through(samples: &[Found], fit: Option<Vector3<f64>>) -> f64 {
     let mean = samples.iter().map(|s| s.0).sum::<f64>() / samples.len() as f64;
-    let Some(p) = fit_inverse_plane(samples) else {
+    let Some(p) = fit else {
         return mean;
     };
     let zz = 1.0 / p.z;
@@ -1336,6 +1337,33 @@ mod tests {
             .collect()
     }
 
+    /// Asserts that every pixel `(x, y)` of `xs × ys` in a `w`-wide map was filled (when
+    /// `must_fill`; otherwise every filled one) and lies within `rel` of `want(x, y)`.
+    #[allow(clippy::too_many_arguments)]
+    fn assert_fills(
+        w: usize,
+        out: &[f32],
+        filled: &[bool],
+        xs: std::ops::Range<usize>,
+        ys: std::ops::Range<usize>,
+        want: impl Fn(f64, f64) -> f64,
+        rel: f64,
+        must_fill: bool,
+    ) {
+        for y in ys {
+            for x in xs.clone() {
+                let k = y * w + x;
+                assert!(filled[k] || !must_fill, "({x}, {y}) filled");
+                let want = want(x as f64, y as f64);
+                assert!(
+                    !filled[k] || (out[k] as f64 - want).abs() < rel * want,
+                    "({x}, {y}): {} against {want}",
+                    out[k]
+                );
+            }
+        }
+    }
+
     #[test]
     fn the_hole_fill_takes_the_background_behind_an_occluder() {
         // An occluder at z = 2 left of x = 15; a slanted background right of x = 20; the
@@ -1350,18 +1378,7 @@ mod tests {
         );
         let cfg = MvsConfig::default();
         let (out, filled) = fill_holes(&cfg, w, h, &vec![true; w * h], &vec![0.5; w * h], &z);
-        for y in 5..16 {
-            for x in 15..=20 {
-                let k = y * w + x;
-                let want = far(x as f64, y as f64);
-                assert!(filled[k], "({x}, {y}) filled");
-                assert!(
-                    (out[k] as f64 - want).abs() < 0.02 * want,
-                    "({x}, {y}): {} against the background's {want}",
-                    out[k]
-                );
-            }
-        }
+        assert_fills(w, &out, &filled, 15..21, 5..16, far, 0.02, true);
         assert!(
             (0..w * h).all(|k| !filled[k] || z[k].is_nan()),
             "only missing pixels are filled"
@@ -1415,19 +1432,7 @@ mod tests {
             out[k]
         );
         // Every filled pixel of the band lies on the background's plane.
-        for y in 18..=24 {
-            for x in 5..35 {
-                let q = y * w + x;
-                let want = far(x as f64, y as f64);
-                if filled[q] {
-                    assert!(
-                        (out[q] as f64 - want).abs() < 1e-4 * want,
-                        "({x}, {y}): {} against {want}",
-                        out[q]
-                    );
-                }
-            }
-        }
+        assert_fills(w, &out, &filled, 5..35, 18..25, far, 1e-4, false);
     }
 
     #[test]
@@ -1488,17 +1493,7 @@ mod tests {
             &vec![0.5; w * h],
             &z,
         );
-        for y in 17..24 {
-            for x in 17..24 {
-                let (k, want) = (y * w + x, plane(x as f64, y as f64));
-                assert!(filled[k]);
-                assert!(
-                    (out[k] as f64 - want).abs() < 1e-5 * want,
-                    "({x}, {y}): {} against {want}",
-                    out[k]
-                );
-            }
-        }
+        assert_fills(w, &out, &filled, 17..24, 17..24, plane, 1e-5, true);
     }
 
     #[test]
@@ -1905,38 +1900,21 @@ mod tests {
         assert_eq!(bad(&|c| c.margin = -1.0), Some("train.depth.margin"));
         assert_eq!(bad(&|c| c.mvs.top_k = 5), Some("train.depth.mvs.top_k"));
         assert_eq!(bad(&|c| c.mvs.planes = 1), Some("train.depth.mvs.planes"));
-        assert_eq!(
-            bad(&|c| c.mvs.min_consistent = 9),
-            Some("train.depth.mvs.min_consistent")
-        );
-        assert_eq!(
-            bad(&|c| c.mvs.fuse_radius = 9.0),
-            Some("train.depth.mvs.fuse_radius")
-        );
-        assert_eq!(
-            bad(&|c| c.mvs.fuse_support = 0),
-            Some("train.depth.mvs.fuse_support")
-        );
-        assert_eq!(
-            bad(&|c| c.mvs.hole_radius = 65),
-            Some("train.depth.mvs.hole_radius")
-        );
-        assert_eq!(
-            bad(&|c| c.mvs.hole_jump = 0.0),
-            Some("train.depth.mvs.hole_jump")
-        );
-        assert_eq!(
-            bad(&|c| c.mvs.hole_tol = f32::NAN),
-            Some("train.depth.mvs.hole_tol")
-        );
-        assert_eq!(
-            bad(&|c| c.mvs.hole_refine = 9),
-            Some("train.depth.mvs.hole_refine")
-        );
-        assert_eq!(
-            bad(&|c| c.mvs.hole_grey_tol = -0.1),
-            Some("train.depth.mvs.hole_grey_tol")
-        );
+        type Mutate = fn(&mut DepthConfig);
+        let cases: [(Mutate, &str); 8] = [
+            (|c| c.mvs.min_consistent = 9, "min_consistent"),
+            (|c| c.mvs.fuse_radius = 9.0, "fuse_radius"),
+            (|c| c.mvs.fuse_support = 0, "fuse_support"),
+            (|c| c.mvs.hole_radius = 65, "hole_radius"),
+            (|c| c.mvs.hole_jump = 0.0, "hole_jump"),
+            (|c| c.mvs.hole_tol = f32::NAN, "hole_tol"),
+            (|c| c.mvs.hole_refine = 9, "hole_refine"),
+            (|c| c.mvs.hole_grey_tol = -0.1, "hole_grey_tol"),
+        ];
+        for (f, key) in cases {
+            let want = format!("train.depth.mvs.{key}");
+            assert_eq!(bad(&f), Some(want.as_str()));
+        }
         // TOML: a section with one key keeps every other default.
         let t: DepthConfig = toml::from_str("weight = 5.0\n[mvs]\nplanes = 64\n").unwrap();
         assert_eq!(t.mvs.planes, 64);
