@@ -1000,6 +1000,8 @@ fn fill_holes(
     let mut filled = vec![false; z.len()];
     // Per direction the nearest depth: (z, dx, dy, grey there), farthest first once sorted.
     let mut found: Vec<Found> = Vec::with_capacity(8);
+    // The candidate groups of `found`: (start, end, grey distance), preferred first.
+    let mut groups: Vec<(usize, usize, f64)> = Vec::with_capacity(8);
     for k in 0..z.len() {
         if !mask[k] || z[k].is_finite() {
             continue;
@@ -1029,10 +1031,9 @@ fn fill_holes(
         found.sort_by(|a, b| b.0.total_cmp(&a.0));
         let far = found[0].0;
         let near = found[found.len() - 1].0;
-        // The candidate groups, preferred first.
-        let mut groups: Vec<(&[Found], f64)> = Vec::new();
+        groups.clear();
         if far - near <= jump * far {
-            groups.push((&found[..], 0.0));
+            groups.push((0, found.len(), 0.0));
         } else {
             // Farthest first; with the grey test only those whose mean grey lies within it of
             // the pixel's, the nearest in grey first (on a tie, the farther).
@@ -1050,17 +1051,18 @@ fn fill_holes(
                 let gm = g.iter().map(|f| f.3).sum::<f64>() / n as f64;
                 let d = (gm - grey[k] as f64).abs();
                 if gtol <= 0.0 {
-                    groups.push((g, 0.0));
+                    groups.push((a, a + n, 0.0));
                 } else if d < gtol {
-                    groups.push((g, d));
+                    groups.push((a, a + n, d));
                 }
                 a += n;
             }
-            groups.sort_by(|a, b| a.1.total_cmp(&b.1));
+            groups.sort_by(|a, b| a.2.total_cmp(&b.2));
         }
         let mut preferred = None;
         let mut pick = None;
-        for (group, _) in groups {
+        for &(g0, g1, _) in &groups {
+            let group = &found[g0..g1];
             let fit = fit_inverse_plane(group);
             let mut zk = plane_through(group, fit);
             if cfg.hole_refine > 0 {
@@ -1202,7 +1204,8 @@ impl SurfelCloud {
         let du = d.normalize();
         let x0 = v.c + d * z;
         let [cx, cy, cz] = Self::cell(&x0, self.radius);
-        let mut near: Vec<Vector3<f64>> = Vec::new();
+        // Sums of the offsets from `x0` (within the radius: no cancellation to speak of).
+        let (mut n, mut s1, mut s2) = (0usize, Vector3::zeros(), Matrix3::zeros());
         for a in -1..=1 {
             for b in -1..=1 {
                 for c in -1..=1 {
@@ -1212,23 +1215,22 @@ impl SurfelCloud {
                         .into_iter()
                         .flatten()
                     {
-                        let (p, s) = (self.p[i as usize], self.seen_from[i as usize]);
-                        if (p - x0).norm_squared() <= self.radius * self.radius && s.dot(&du) < -0.2
-                        {
-                            near.push(p);
+                        let (q, s) = (self.p[i as usize] - x0, self.seen_from[i as usize]);
+                        if q.norm_squared() <= self.radius * self.radius && s.dot(&du) < -0.2 {
+                            n += 1;
+                            s1 += q;
+                            s2 += q * q.transpose();
                         }
                     }
                 }
             }
         }
-        if near.len() < CAST_MIN_SURFELS {
+        if n < CAST_MIN_SURFELS {
             return None;
         }
-        let c = near.iter().sum::<Vector3<f64>>() / near.len() as f64;
-        let scatter = near
-            .iter()
-            .fold(Matrix3::zeros(), |m, p| m + (p - c) * (p - c).transpose());
-        let eig = scatter.symmetric_eigen();
+        let m = s1 / n as f64;
+        let c = x0 + m;
+        let eig = (s2 - m * s1.transpose()).symmetric_eigen();
         let mut order = [0, 1, 2];
         order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
         if eig.eigenvalues[order[0]] > 0.05 * eig.eigenvalues[order[1]] {
