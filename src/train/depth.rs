@@ -213,9 +213,14 @@ pub struct DepthConfig {
     /// which cost the other scenes and their genus (`results/geometry/depth-prior-2026-11-27`,
     /// `results/geometry/depth-holes-2026-11-28`). With the hole fill's refit and free-space
     /// check, cup 1.118 / 1.211 mm at 5 and 0.970 / 1.045 at 10 (seeds 0 / 1; 1.07 at 20,
-    /// scratch) (`results/geometry/free-space-2026-11-28`).
+    /// scratch) (`results/geometry/free-space-2026-11-28`). Over the rest of the suite 10 costs
+    /// nothing against 5 (mean ratio without cup 2.17× / 2.19× at seeds 0 / 1 at both weights),
+    /// so 10 is the weight to pass; thin parts lose against off (rods 1.47× → 2.03× at seed 0)
+    /// (`results/geometry/w10-suite-2026-11-28`).
     pub weight: f32,
-    /// Weight of the `|f(x(t_d))|` term against the hinge's (0.2).
+    /// Weight of the `|f(x(t_d))|` term against the hinge's (0.2). Without it (0) the cup
+    /// gives 1.87 / 1.53 mm at weight 10, 1.0 takes in the prior's errors (1.09 / 1.10)
+    /// (`results/geometry/w10-suite-2026-11-28`, `results/geometry/one-view-2026-11-28`).
     pub surface_weight: f32,
     /// First step that applies it (200).
     pub start_step: u64,
