@@ -141,8 +141,9 @@ fn colmap_round_trip_on_a_tiny_scene_stays_within_the_bound() {
     // Issue 16's bound, 1.3, is judged on the poses ratio, which uses the viewing directions
     // too. The centres ratio, the issue's own definition and the full-size run's (README), swings
     // with the rotation a shallow cap of 16 centres pins poorly (in one run here the centres
-    // fit turned 0.18° from the poses fit: 1.5 mm at the object's 490 mm); an importer slip moves the centres by tens of mm and
-    // fails the residual check above, so the centres ratio only has to stay below 2.
+    // fit turned 0.18° from the poses fit: 1.5 mm at the object's 490 mm); an importer slip
+    // moves the centres by tens of mm and fails the residual check above, so the centres ratio
+    // only has to stay below 2.
     let (ratio, ratio_poses) = (number(&summary, "ratio"), number(&summary, "ratio_poses"));
     assert!(
         ratio_poses.is_finite() && ratio_poses <= 1.3,
