@@ -559,6 +559,123 @@ fn prior_runs(section: &str) -> PriorRuns {
     }
 }
 
+/// The depth prior's automatic switch (`train.depth.auto`, issue 13). Its check runs after step
+/// `round(0.1 · 24) = 2` of the tiny run. Switched on (a check that cannot fail to fire), the
+/// run gives the mesh bytes of a run that asks for the prior at the switch's weight from step
+/// 2; a check that cannot fire leaves the mesh of a run without the check; `metrics.json` and
+/// `depth_auto.json` say what it found; a run stopped after the check and resumed makes the
+/// same decision from the record and the same mesh; bad values are refused by name.
+#[test]
+fn depth_auto_switch_matches_the_prior_it_turns_on_and_resumes_the_same() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mvs = "[train.depth]\nstart_step = 0\nrays = 64\n[train.depth.mvs]\nplanes = 32\n";
+    // The check after step round(0.1 · 24) = 2: no `min_step` in so short a run.
+    let json = |d: &Path, f: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join(f)).unwrap()).unwrap()
+    };
+    let mesh = |d: &Path| std::fs::read(d.join("mesh.ply")).unwrap();
+    // Fires: any ray with solid 0.01 in front of its depth counts, one is enough.
+    // Each configuration in its own folder (`write_config` writes `tiny.toml`).
+    let dir = |n: &str| {
+        let d = tmp.path().join(n);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    };
+    let fire = write_config(
+        &dir("fire"),
+        &format!(
+            "{mvs}[train.depth.auto]\nmin_step = 0\nmargin = 0.01\nstep = 0.005\nshare = 1e-9\n\
+             min_rays = 1\n"
+        ),
+    );
+    let on = tmp.path().join("on");
+    ok(&reconstruct(&fire, &on, &[]));
+    let m = json(&on, "metrics.json");
+    let a = &m["train"]["depth_auto"];
+    assert_eq!(a["step"].as_u64(), Some(2), "{a}");
+    assert_eq!(a["triggered"].as_bool(), Some(true), "{a}");
+    let (rays, front) = (a["rays"].as_u64().unwrap(), a["in_front"].as_u64().unwrap());
+    assert!(rays > 0 && front > 0 && front <= rays, "{a}");
+    let share = a["share"].as_f64().unwrap();
+    assert!((share - front as f64 / rays as f64).abs() < 1e-12, "{a}");
+    assert!(
+        m["train"]["depth_maps"]["with_depth"].as_u64().unwrap() > 0,
+        "{m}"
+    );
+    assert!(
+        m["train"]["depth_last"]["rays"].as_u64().unwrap() > 0,
+        "{m}"
+    );
+    assert_eq!(
+        &json(&on, "depth_auto.json"),
+        a,
+        "the record is what metrics.json says"
+    );
+    // The prior asked for, at the switch's weight, from the step after the check.
+    let asked = tmp.path().join("asked");
+    let cfg = write_config(&dir("asked_cfg"), mvs);
+    ok(&reconstruct(
+        &cfg,
+        &asked,
+        &[
+            "--set",
+            "train.depth.weight=10",
+            "--set",
+            "train.depth.start_step=2",
+        ],
+    ));
+    assert_eq!(
+        mesh(&on),
+        mesh(&asked),
+        "switched on = asked for from step 2"
+    );
+    assert!(json(&asked, "metrics.json")["train"]
+        .get("depth_auto")
+        .is_none());
+    // Never fires (more rays needed than the tiny views have): the mesh of a run without it.
+    let never = write_config(
+        &dir("never"),
+        &format!("{mvs}[train.depth.auto]\nmin_step = 0\nmin_rays = 100000000\n"),
+    );
+    let off_check = tmp.path().join("off_check");
+    ok(&reconstruct(&never, &off_check, &[]));
+    let a = &json(&off_check, "metrics.json")["train"]["depth_auto"];
+    assert_eq!(a["triggered"].as_bool(), Some(false), "{a}");
+    assert!(json(&off_check, "metrics.json")["train"]
+        .get("depth_maps")
+        .is_none());
+    let off = tmp.path().join("off");
+    ok(&reconstruct(
+        &cfg,
+        &off,
+        &["--set", "train.depth.auto.enabled=false"],
+    ));
+    assert!(json(&off, "metrics.json")["train"]
+        .get("depth_auto")
+        .is_none());
+    assert_eq!(
+        mesh(&off_check),
+        mesh(&off),
+        "a check that does not fire changes nothing"
+    );
+    assert_ne!(mesh(&off), mesh(&on));
+    // Stopped after the check, resumed: the decision comes from depth_auto.json.
+    let resumed = tmp.path().join("resumed");
+    assert!(!reconstruct(&fire, &resumed, &["--stop-after", "8"])
+        .status
+        .success());
+    assert!(resumed.join("depth_auto.json").is_file());
+    ok(&reconstruct(&fire, &resumed, &["--resume"]));
+    assert_eq!(mesh(&resumed), mesh(&on), "resumed after the check");
+    for (set, key) in [
+        ("train.depth.auto.share=0", "train.depth.auto.share"),
+        ("train.depth.auto.at=1.5", "train.depth.auto.at"),
+        ("train.depth.auto.views=0", "train.depth.auto.views"),
+    ] {
+        fails_with("", &["--set", set], None, &[key]);
+    }
+}
+
 /// The multi-view patch consistency (`train.multiview`, issue 13): on from step 8 of 24, the
 /// tiny run finishes, the same seed gives the same mesh bytes, the mesh differs from a run
 /// without it (its gradient reaches the field), `metrics.json` says what it did at the last

@@ -106,6 +106,10 @@ pub struct TrainSummary {
     /// The depth prior at the last step (`train.depth`); absent when off or past its end step.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub depth_last: Option<crate::train::depth::DepthStep>,
+    /// The depth prior's automatic switch (`train.depth.auto`): what its check found; absent
+    /// when it did not run (the prior asked for, no masks, switched off, or `paper`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_auto: Option<crate::train::depth_auto::AutoCheck>,
     /// Error-map sampling at the end of training (`train.error_map`); absent when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error_map: Option<crate::train::error_map::ErrorMapSummary>,

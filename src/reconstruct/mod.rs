@@ -50,7 +50,8 @@ use crate::scene::{GrayImage, LoadOptions, RgbImage, Scene, SceneError};
 use crate::sim::{self, SimError};
 use crate::train::checkpoint::{self, CheckpointError, TrainState};
 use crate::train::data::{camera_rays, DataError};
-use crate::train::depth::{self as depth_prior, DepthPrior};
+use crate::train::depth::{self as depth_prior, DepthConfig, DepthMapsSummary, DepthPrior};
+use crate::train::depth_auto::{self, AutoCheck};
 use crate::train::hull::{self, HullError, HullSdf, InitKind};
 use crate::train::metrics::{psnr, ssim};
 use crate::train::multiview::MultiViewPrior;
@@ -274,6 +275,129 @@ impl Progress {
             b.finish_and_clear();
         }
     }
+}
+
+/// The stereo of the depth prior `depth` over the training views, and the prior on it
+/// (`train::depth`), with what the stereo found said and summarised.
+fn stereo_prior(
+    depth: &DepthConfig,
+    cameras: &[crate::scene::Camera],
+    data: &TrainData,
+    quiet: bool,
+) -> (DepthPrior, DepthMapsSummary) {
+    let t_mvs = Instant::now();
+    say(
+        quiet,
+        format!(
+            "depth prior: plane-sweep stereo of {} views ({} planes)",
+            cameras.len(),
+            depth.mvs.planes
+        ),
+    );
+    let maps = depth_prior::depth_maps(&depth.mvs, cameras, data.views(), data.masks());
+    let summary = maps.summary(t_mvs.elapsed().as_secs_f64());
+    say(
+        quiet,
+        format!(
+            "depth prior: depth on {} of {} pixels ({:.1} %; {} by the fusion fill, {} by the hole fill) in {:.1} s",
+            summary.with_depth,
+            summary.considered,
+            100.0 * summary.with_depth as f64 / summary.considered.max(1) as f64,
+            summary.filled,
+            summary.hole_filled,
+            summary.seconds
+        ),
+    );
+    if summary.with_depth == 0 {
+        say(
+            false,
+            "warning: the depth prior found no depth (no texture, or no view overlap): it does nothing",
+        );
+    }
+    (
+        DepthPrior::new(depth.clone(), cameras.to_vec(), maps),
+        summary,
+    )
+}
+
+/// The automatic switch's check on the field of `state` (`train::depth_auto`): sweeps its
+/// views, marches their rays through the field, decides, says so and writes the decision to
+/// `path` (`depth_auto.json`).
+fn run_auto_check(
+    cfg: &RunConfig,
+    model: &NeusModel,
+    state: &TrainState,
+    cameras: &[crate::scene::Camera],
+    data: &TrainData,
+    path: &Path,
+    quiet: bool,
+) -> Result<AutoCheck, ReconstructError> {
+    let a = &cfg.train.depth.auto;
+    let t0 = Instant::now();
+    let views = depth_auto::check_views(cameras.len(), a.views);
+    let maps = depth_prior::sweep_depths(
+        &cfg.train.depth.mvs,
+        cameras,
+        data.views(),
+        data.masks(),
+        &views,
+    );
+    let cams: Vec<&crate::scene::Camera> = views.iter().map(|&i| &cameras[i]).collect();
+    let active = model.config.schedule(state.step).active_levels;
+    let sdf = |p: &[[f32; 3]]| model.sdf(&state.params, p, active);
+    let (rays, in_front) = depth_auto::solid_in_front(
+        &sdf,
+        &cams,
+        &maps,
+        model.config.render.radius as f64,
+        a.margin as f64,
+        a.step as f64,
+    );
+    let share = if rays > 0 {
+        in_front as f64 / rays as f64
+    } else {
+        0.0
+    };
+    let triggered = rays >= a.min_rays && share >= a.share as f64;
+    let check = AutoCheck {
+        step: state.step,
+        views,
+        rays,
+        in_front,
+        share,
+        margin: a.margin,
+        threshold: a.share,
+        triggered,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    let verdict = if triggered {
+        "the field has closed space the stereo sees through (a cavity's lid): depth prior on"
+            .to_string()
+    } else if rays < a.min_rays {
+        format!(
+            "fewer than {} rays with a stereo depth: depth prior stays off",
+            a.min_rays
+        )
+    } else {
+        "depth prior stays off".to_string()
+    };
+    say(
+        quiet,
+        format!(
+            "depth prior, automatic switch at step {}: {} of {} rays ({:.1} %, threshold {:.1} %) \
+             have solid more than {} in front of their stereo depth, {:.1} s; {verdict}",
+            check.step,
+            in_front,
+            rays,
+            100.0 * share,
+            100.0 * a.share,
+            a.margin,
+            check.seconds
+        ),
+    );
+    let text = serde_json::to_string_pretty(&check).expect("the check serialises");
+    write_atomic(path, &text)?;
+    Ok(check)
 }
 
 fn say(quiet: bool, msg: impl AsRef<str>) {
@@ -551,43 +675,26 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     }
     let mut depth_maps = None;
     if cfg.train.depth.enabled() {
-        let t_mvs = Instant::now();
-        say(
-            quiet,
-            format!(
-                "depth prior: plane-sweep stereo of {} views ({} planes)",
-                cameras.len(),
-                cfg.train.depth.mvs.planes
-            ),
-        );
-        let maps =
-            depth_prior::depth_maps(&cfg.train.depth.mvs, &cameras, data.views(), data.masks());
-        let summary = maps.summary(t_mvs.elapsed().as_secs_f64());
-        say(
-            quiet,
-            format!(
-                "depth prior: depth on {} of {} pixels ({:.1} %; {} by the fusion fill, {} by the hole fill) in {:.1} s",
-                summary.with_depth,
-                summary.considered,
-                100.0 * summary.with_depth as f64 / summary.considered.max(1) as f64,
-                summary.filled,
-                summary.hole_filled,
-                summary.seconds
-            ),
-        );
-        if summary.with_depth == 0 {
-            say(
-                false,
-                "warning: the depth prior found no depth (no texture, or no view overlap): it does nothing",
-            );
-        }
+        let (prior, summary) = stereo_prior(&cfg.train.depth, &cameras, &data, quiet);
         depth_maps = Some(summary);
-        trainer = trainer.with_depth_prior(DepthPrior::new(
-            cfg.train.depth.clone(),
-            cameras.clone(),
-            maps,
-        ));
+        trainer = trainer.with_depth_prior(prior);
     }
+    // The depth prior's automatic switch (`train::depth_auto`): with the prior off and a mask on
+    // every training view, a check after step `auto_step` may turn it on. Its decision goes to
+    // `depth_auto.json`, which a resumed run past that step reads instead of checking again.
+    let auto_cfg = &cfg.train.depth.auto;
+    let auto_step = auto_cfg
+        .check_step(cfg.train.iterations)
+        .unwrap_or(u64::MAX);
+    let auto_on = auto_cfg.enabled
+        && !cfg.train.depth.enabled()
+        && all_masked
+        && auto_step < cfg.train.iterations;
+    let auto_path = out.join("depth_auto.json");
+    if resumed.is_none() {
+        remove_if_present(&auto_path)?;
+    }
+    let mut depth_auto: Option<AutoCheck> = None;
     let mut hull_init = None;
     let mut state: TrainState = match resumed {
         Some(s) => {
@@ -629,12 +736,54 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     };
     let resumed_from = (state.step > 0).then_some(state.step);
     let iters = cfg.train.iterations;
+    if auto_on && state.step >= auto_step {
+        let recorded = std::fs::read_to_string(&auto_path)
+            .ok()
+            .and_then(|t| serde_json::from_str::<AutoCheck>(&t).ok());
+        let check = match recorded {
+            Some(c) => Some(c),
+            None if state.step < iters => {
+                say(
+                    quiet,
+                    format!(
+                        "depth prior, automatic switch: no record of the check at step {auto_step} \
+                         ({} missing or unreadable); checking the resumed field at step {}",
+                        auto_path.display(),
+                        state.step
+                    ),
+                );
+                Some(run_auto_check(
+                    cfg, &model, &state, &cameras, &data, &auto_path, quiet,
+                )?)
+            }
+            // Nothing left to train: nothing to decide.
+            None => None,
+        };
+        if check.as_ref().is_some_and(|c| c.triggered) && state.step < iters {
+            let on = cfg.train.depth.switched_on(auto_step);
+            let (prior, summary) = stereo_prior(&on, &cameras, &data, quiet);
+            depth_maps = Some(summary);
+            trainer.set_depth_prior(prior);
+        }
+        depth_auto = check;
+    }
     let mut progress = Progress::new(iters, state.step, quiet);
     let (mut rays, mut samples) = (0u64, 0u64);
     let mut last = None;
     let t_loop = Instant::now();
     while state.step < iters {
         let report = trainer.step(&mut state)?;
+        if auto_on && state.step == auto_step && depth_auto.is_none() && !trainer.has_depth_prior()
+        {
+            let check = run_auto_check(cfg, &model, &state, &cameras, &data, &auto_path, quiet)?;
+            if check.triggered && state.step < iters {
+                let on = cfg.train.depth.switched_on(auto_step);
+                let (prior, summary) = stereo_prior(&on, &cameras, &data, quiet);
+                depth_maps = Some(summary);
+                trainer.set_depth_prior(prior);
+            }
+            depth_auto = Some(check);
+        }
         rays += report.rays as u64;
         samples += report.out.n_samples as u64;
         if let Some(why) = &report.skipped {
@@ -717,6 +866,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         multiview_last: last.as_ref().and_then(|r| r.multiview),
         depth_maps,
         depth_last: last.as_ref().and_then(|r| r.depth),
+        depth_auto,
         error_map: state.error_map.as_ref().map(|m| m.summary()),
     };
     say(

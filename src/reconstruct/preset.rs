@@ -69,6 +69,9 @@ impl Preset {
                     start_step: 0,
                     update_steps: 1000,
                 });
+                // The reference has no depth prior, so no switch that turns one on
+                // (`train::depth_auto`).
+                train.depth.auto.enabled = false;
             }
             Preset::Default => {
                 model.field.hash_grid.log2_hashmap_size = 17;
@@ -176,6 +179,12 @@ impl Preset {
                 c.data.downscale = 2;
                 // Held-out views at fast's resolution, so PSNR and normal error compare.
                 c.data.render_downscale = 1;
+                // The depth prior's automatic switch a quarter into the run (step 350): at step
+                // 200, where a tenth of 1400 steps and `min_step` put it, `blocks`' front has
+                // not settled on half-size images (3.52 / 4.41 / 1.84 % of rays with solid in
+                // front at seeds 0–2, against the 5 % threshold); at 350 1.13–2.25 %, `cup`
+                // 22.6–23.7 % (results/geometry/depth-auto-2026-11-28).
+                c.train.depth.auto.at = 0.25;
                 return c;
             }
         }
@@ -330,6 +339,23 @@ mod tests {
         );
     }
 
+    /// The depth prior's automatic switch (`train::depth_auto`) checks in every preset but
+    /// `paper`, whose reference has no prior; no preset asks for the prior itself.
+    #[test]
+    fn the_depth_switch_is_on_in_every_preset_but_paper() {
+        for p in [Preset::Quick, Preset::Fast, Preset::Default, Preset::Paper] {
+            let c = p.config();
+            assert_eq!(c.train.depth.auto.enabled, p != Preset::Paper, "{p:?}");
+            assert_eq!(c.train.depth.weight, 0.0, "{p:?}");
+            assert!(c.train.depth.invalid().is_none(), "{p:?}");
+        }
+        assert_eq!(
+            Preset::Fast.config().train.depth.auto.check_step(2000),
+            Some(200),
+            "fast checks at its prior's start step"
+        );
+    }
+
     #[test]
     fn quick_is_fast_with_half_size_images_half_the_samples_and_uniform_rays() {
         let (q, f) = (Preset::Quick.config(), Preset::Fast.config());
@@ -374,6 +400,10 @@ mod tests {
         back.mesh.close_radius = f.mesh.close_radius;
         back.model.render.fd_central_every = f.model.render.fd_central_every;
         back.model.render.fd_one_sided_span = f.model.render.fd_one_sided_span;
+        // The depth prior's automatic switch a quarter into the run, not a tenth.
+        assert_eq!(q.train.depth.auto.at, 0.25);
+        assert_eq!(q.train.depth.auto.check_step(q.train.iterations), Some(350));
+        back.train.depth.auto.at = f.train.depth.auto.at;
         // The decay comes from the reference directly; the rescaled f32 may differ in its last bit.
         let (dq, ds) = (
             q.model.render.occupancy.ema_decay,

@@ -1,4 +1,6 @@
-//! Depth prior from multi-view stereo (`[train.depth]`, issue 13; opt-in, off by default).
+//! Depth prior from multi-view stereo (`[train.depth]`, issue 13): off unless asked for
+//! (`weight > 0`) or switched on part-way through a run by [`super::depth_auto`], which checks
+//! whether the field has closed space the stereo sees through (a cavity's lid).
 //!
 //! **Why.** On shapes whose concave parts the colour loss cannot pin down (the `cup`'s inside,
 //! seen through its opening), NeuS at the `fast` preset closes the cavity with a false sheet that
@@ -207,11 +209,11 @@ impl Default for MvsConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DepthConfig {
-    /// Weight of the loss (0: off). Measured at `fast`, seed 0, with the hole fill: 5 gives
-    /// the suite a mean ratio to the floor of 2.14× without cup (2.20× off) and cup 1.27 mm
-    /// (4.81 off; 1.24 at seed 1); without the hole fill cup wanted 20–40 (1.37–1.47 mm),
-    /// which cost the other scenes and their genus (`results/geometry/depth-prior-2026-11-27`,
-    /// `results/geometry/depth-holes-2026-11-28`). With the hole fill's refit and free-space
+    /// Weight of the loss (0: off, unless `auto` switches it on). Measured at `fast`, seed 0,
+    /// with the hole fill: 5 gives the suite a mean ratio to the floor of 2.14× without cup
+    /// (2.20× off) and cup 1.27 mm (4.81 off; 1.24 at seed 1); without the hole fill cup
+    /// wanted 20–40 (1.37–1.47 mm), which cost the other scenes and their genus
+    /// (`results/geometry/depth-prior-2026-11-27`, `results/geometry/depth-holes-2026-11-28`). With the hole fill's refit and free-space
     /// check, cup 1.118 / 1.211 mm at 5 and 0.970 / 1.045 at 10 (seeds 0 / 1; 1.07 at 20,
     /// scratch) (`results/geometry/free-space-2026-11-28`). Over the rest of the suite 10 costs
     /// nothing against 5 (mean ratio without cup 2.17× / 2.19× at seeds 0 / 1 at both weights),
@@ -245,6 +247,9 @@ pub struct DepthConfig {
     pub refine: usize,
     /// The stereo.
     pub mvs: MvsConfig,
+    /// The automatic switch: with `weight` 0, whether a check part-way through the run turns
+    /// the prior on ([`super::depth_auto`]).
+    pub auto: super::depth_auto::DepthAutoConfig,
 }
 
 impl Default for DepthConfig {
@@ -262,6 +267,7 @@ impl Default for DepthConfig {
             march_samples: 128,
             refine: 6,
             mvs: MvsConfig::default(),
+            auto: Default::default(),
         }
     }
 }
@@ -484,8 +490,20 @@ impl DepthConfig {
                 "must be in [0, 1] (normalised units)",
             ),
         ];
-        let (key, _, value, why) = checks.into_iter().find(|c| !c.1)?;
-        Some((key, value, why))
+        if let Some((key, _, value, why)) = checks.into_iter().find(|c| !c.1) {
+            return Some((key, value, why));
+        }
+        self.auto.invalid()
+    }
+
+    /// This prior as the automatic switch turns it on after step `check_step`: weight
+    /// `auto.weight` (to `final_weight` when one is set), from the later of `start_step` and the step after the check.
+    pub fn switched_on(&self, check_step: u64) -> Self {
+        Self {
+            weight: self.auto.weight,
+            start_step: self.start_step.max(check_step),
+            ..self.clone()
+        }
     }
 }
 
@@ -608,40 +626,9 @@ pub fn depth_maps(
     masks: Option<&[GrayImage]>,
 ) -> DepthMaps {
     assert_eq!(cameras.len(), images.len(), "one image per camera");
-    let views: Vec<View> = cameras
-        .iter()
-        .zip(images)
-        .enumerate()
-        .map(|(i, (c, img))| View {
-            w: img.width,
-            h: img.height,
-            grey: img
-                .data
-                .chunks_exact(3)
-                .map(|q| luma([q[0], q[1], q[2]]))
-                .collect(),
-            k: c.k,
-            kinv: c.k.try_inverse().expect("K has a positive diagonal"),
-            r: c.r,
-            c: c.center,
-            mask: match masks {
-                Some(m) => m[i].data.iter().map(|&v| v > 0.5).collect(),
-                None => vec![true; img.width * img.height],
-            },
-        })
-        .collect();
+    let views = stereo_views(cameras, images, masks);
     let n = views.len();
-    let sources: Vec<Vec<usize>> = (0..n)
-        .map(|i| {
-            let ai = views[i].r.row(2).transpose();
-            let mut o: Vec<(f64, usize)> = (0..n)
-                .filter(|&j| j != i)
-                .map(|j| (-ai.dot(&views[j].r.row(2).transpose()), j))
-                .collect();
-            o.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            o.iter().take(cfg.sources).map(|x| x.1).collect()
-        })
-        .collect();
+    let sources = nearest_sources(&views, cfg.sources);
     let z: Vec<Vec<f32>> = (0..n)
         .into_par_iter()
         .map(|i| sweep_view(cfg, &views, i, &sources[i]))
@@ -703,6 +690,84 @@ pub fn depth_maps(
             .map(|v| v.mask.iter().filter(|&&m| m).count())
             .sum(),
     }
+}
+
+/// The views as the stereo sees them: grey images, cameras, masks (all pixels without).
+fn stereo_views(cameras: &[Camera], images: &[RgbImage], masks: Option<&[GrayImage]>) -> Vec<View> {
+    cameras
+        .iter()
+        .zip(images)
+        .enumerate()
+        .map(|(i, (c, img))| View {
+            w: img.width,
+            h: img.height,
+            grey: img
+                .data
+                .chunks_exact(3)
+                .map(|q| luma([q[0], q[1], q[2]]))
+                .collect(),
+            k: c.k,
+            kinv: c.k.try_inverse().expect("K has a positive diagonal"),
+            r: c.r,
+            c: c.center,
+            mask: match masks {
+                Some(m) => m[i].data.iter().map(|&v| v > 0.5).collect(),
+                None => vec![true; img.width * img.height],
+            },
+        })
+        .collect()
+}
+
+/// Per view, its `count` source views: the nearest by the angle of the optical axes (ties by
+/// index).
+fn nearest_sources(views: &[View], count: usize) -> Vec<Vec<usize>> {
+    let n = views.len();
+    (0..n)
+        .map(|i| {
+            let ai = views[i].r.row(2).transpose();
+            let mut o: Vec<(f64, usize)> = (0..n)
+                .filter(|&j| j != i)
+                .map(|j| (-ai.dot(&views[j].r.row(2).transpose()), j))
+                .collect();
+            o.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            o.iter().take(count).map(|x| x.1).collect()
+        })
+        .collect()
+}
+
+/// Step 1 alone (the plane sweep, no consistency check and no fill) for the views `which`, as
+/// [`DepthMaps::t`] gives depths: per view of `which`, the distance along the unit ray through
+/// each pixel centre (normalised units; NaN: no depth, or outside the mask). The sources come
+/// from every view, as in [`depth_maps`]; only `which` are swept, so this costs
+/// `which.len() / cameras.len()` of step 1 (`cup`, 8 of 46 views: 2.1 s on 2 cores, against
+/// 14 s). What the depth prior's automatic switch ([`super::depth_auto`]) looks at.
+pub fn sweep_depths(
+    cfg: &MvsConfig,
+    cameras: &[Camera],
+    images: &[RgbImage],
+    masks: Option<&[GrayImage]>,
+    which: &[usize],
+) -> Vec<Vec<f32>> {
+    assert_eq!(cameras.len(), images.len(), "one image per camera");
+    let views = stereo_views(cameras, images, masks);
+    let sources = nearest_sources(&views, cfg.sources);
+    which
+        .par_iter()
+        .map(|&i| {
+            let v = &views[i];
+            sweep_view(cfg, &views, i, &sources[i])
+                .iter()
+                .enumerate()
+                .map(|(k, &z)| {
+                    if !v.mask[k] || !z.is_finite() {
+                        return f32::NAN;
+                    }
+                    let d = v.dir((k % v.w) as f64 + 0.5, (k / v.w) as f64 + 0.5);
+                    (z as f64 * d.norm()) as f32
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// Step 1 of the module doc for view `i`: its camera `z` per pixel (NaN: none).

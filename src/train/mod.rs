@@ -2,12 +2,14 @@
 //! renderer's `RayLoss` interface), the optimiser ([`adam`]: AdamW with per-group learning rates
 //! and a NaN guard), the learning-rate schedule, training rays, checkpoints, the training loop
 //! (with the dynamic ray count and error-map sampling, [`error_map`]), the opt-in priors
-//! ([`unseen`], [`multiview`]) and image metrics.
+//! ([`unseen`], [`multiview`], [`depth`] with its automatic switch [`depth_auto`]) and image
+//! metrics.
 
 pub mod adam;
 pub mod checkpoint;
 pub mod data;
 pub mod depth;
+pub mod depth_auto;
 pub mod error_map;
 pub mod hull;
 pub mod loss;

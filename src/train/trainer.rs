@@ -195,6 +195,17 @@ impl<'a> Trainer<'a> {
         self
     }
 
+    /// Adds the depth prior part-way through a run (the automatic switch,
+    /// [`super::depth_auto`]); it applies from its start step as with [`Self::with_depth_prior`].
+    pub fn set_depth_prior(&mut self, prior: DepthPrior) {
+        self.depth = Some(prior);
+    }
+
+    /// Whether a depth prior is attached.
+    pub fn has_depth_prior(&self) -> bool {
+        self.depth.is_some()
+    }
+
     /// The state at step 0: seeded parameters, fresh moments, an all-occupied grid.
     pub fn initial_state(&self) -> TrainState {
         TrainState {
