@@ -385,7 +385,8 @@ fn run_auto_check(
         quiet,
         format!(
             "depth prior, automatic switch at step {}: {} of {} rays ({:.1} %, threshold {:.1} %) \
-             have solid more than {} in front of their stereo depth, {:.1} s; {verdict}",
+             have solid more than {} (normalised units) in front of their stereo depth, {:.1} s; \
+             {verdict}",
             check.step,
             in_front,
             rays,
