@@ -541,6 +541,17 @@ fn hard_report_from_known_numbers_and_an_old_record() {
         m["normal_error_deg"] = 5.0.into();
         m["mesh"] = serde_json::json!({"vertices": 50, "faces": 90, "components": 1,
             "genus": genus, "largest_genus": genus, "raw_components": 5, "raw_faces": 100});
+        // The depth prior: switched on by its check in one run, asked for in another.
+        let maps = serde_json::json!({"considered": 10, "with_depth": 9, "filled": 1,
+            "hole_filled": 1, "seconds": 1.0});
+        if r.id == "torus-sia-s1" {
+            m["train"]["depth_maps"] = maps.clone();
+            m["train"]["depth_auto"] = serde_json::json!({"step": 200, "views": [0, 1],
+                "rays": 100, "in_front": 20, "share": 0.2, "margin": 0.2, "threshold": 0.05,
+                "triggered": true, "seconds": 1.0});
+        } else if r.id == "torus-sia-s2" {
+            m["train"]["depth_maps"] = maps;
+        }
         std::fs::write(&path, m.to_string()).unwrap();
     }
     let to = tmp.path().join("out");
@@ -571,12 +582,26 @@ fn hard_report_from_known_numbers_and_an_old_record() {
     assert!(!md.contains("| blob | +"), "no paired row for blob:\n{md}");
     let csv = std::fs::read_to_string(to.join("runs.csv")).unwrap();
     let header = csv.lines().next().unwrap();
-    assert!(header.ends_with(",time_to_mesh,floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,normal_error_deg,chamfer_closed"), "{header}");
+    assert!(header.ends_with(",time_to_mesh,floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,normal_error_deg,chamfer_closed,depth_prior"), "{header}");
     let old = csv
         .lines()
         .find(|l| l.starts_with("blob-baseline-s2,"))
         .unwrap();
     assert!(old.ends_with(",,,,,,,,"), "{old}");
+    // The depth prior's column: off where the record says neither.
+    let torus = csv
+        .lines()
+        .find(|l| l.starts_with("torus-dia-s1,"))
+        .unwrap();
+    assert!(torus.ends_with(",off"), "{torus}");
+    for (id, what) in [("torus-sia-s1", "switched on"), ("torus-sia-s2", "asked")] {
+        let l = csv
+            .lines()
+            .find(|l| l.starts_with(&format!("{id},")))
+            .unwrap();
+        assert!(l.ends_with(&format!(",{what}")), "{l}");
+    }
+    assert!(md.contains("| depth prior |"), "{md}");
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(to.join("summary.json")).unwrap()).unwrap();
     let suite = &summary["geometry"]["suite"][0];

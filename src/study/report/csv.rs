@@ -29,7 +29,7 @@ pub(super) fn runs_csv(records: &[RunRecord]) -> String {
     if geometry {
         s.push_str(
             ",floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,\
-             normal_error_deg,chamfer_closed",
+             normal_error_deg,chamfer_closed,depth_prior",
         );
     }
     s.push('\n');
@@ -75,6 +75,7 @@ pub(super) fn runs_csv(records: &[RunRecord]) -> String {
                 opt(g.components.map(|x| x.to_string())),
                 csv_opt(g.normal_error_deg),
                 csv_opt(g.chamfer_closed),
+                csv_field(g.depth_prior.as_deref().unwrap_or("")),
             ];
             s.push(',');
             s.push_str(&f.join(","));

@@ -356,6 +356,7 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
                 fmt_opt(g.normal_error_deg, 1),
                 fmt_opt(r.psnr, 2),
                 fmt_opt(g.chamfer_closed, 3),
+                g.depth_prior.clone().unwrap_or_else(|| "—".into()),
             ]
         })
         .collect();
@@ -371,6 +372,7 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
             "normal error (°)",
             "PSNR",
             "Chamfer, closed mesh",
+            "depth prior",
         ]
         .map(String::from),
         &t,

@@ -78,6 +78,10 @@ pub struct GeometryRecord {
     pub chamfer_closed: Option<f64>,
     /// Mean angle between rendered and true normals on the held-out views (degrees).
     pub normal_error_deg: Option<f64>,
+    /// The depth prior (`train.depth`): `"asked"` (weight > 0 in the config), `"switched on"`
+    /// (its automatic switch fired, `train.depth_auto`) or `"off"`; unknown for a record
+    /// without a floor.
+    pub depth_prior: Option<String>,
 }
 
 impl GeometryRecord {
@@ -102,6 +106,16 @@ impl GeometryRecord {
             ),
             chamfer_closed: m.chamfer_closed.as_ref().map(|c| c.chamfer_sum),
             normal_error_deg: m.normal_error_deg,
+            // A record older than the floor (issue 13's first geometry fields) is older than
+            // the depth prior too, but says nothing about it either way: unknown.
+            depth_prior: m.floor_mm.is_some().then(|| {
+                match (&m.train.depth_auto, &m.train.depth_maps) {
+                    (Some(a), _) if a.triggered => "switched on",
+                    (None, Some(_)) => "asked",
+                    _ => "off",
+                }
+                .to_string()
+            }),
         }
     }
 }
