@@ -696,6 +696,13 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         remove_if_present(&auto_path)?;
     }
     let mut depth_auto: Option<AutoCheck> = None;
+    // The prior as the switch turns it on, attached to the trainer; its stereo's summary.
+    let switch_on = |trainer: &mut Trainer| {
+        let on = cfg.train.depth.switched_on(auto_step);
+        let (prior, summary) = stereo_prior(&on, &cameras, &data, quiet);
+        trainer.set_depth_prior(prior);
+        summary
+    };
     let mut hull_init = None;
     let mut state: TrainState = match resumed {
         Some(s) => {
@@ -761,10 +768,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
             None => None,
         };
         if check.as_ref().is_some_and(|c| c.triggered) && state.step < iters {
-            let on = cfg.train.depth.switched_on(auto_step);
-            let (prior, summary) = stereo_prior(&on, &cameras, &data, quiet);
-            depth_maps = Some(summary);
-            trainer.set_depth_prior(prior);
+            depth_maps = Some(switch_on(&mut trainer));
         }
         depth_auto = check;
     }
@@ -774,14 +778,10 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let t_loop = Instant::now();
     while state.step < iters {
         let report = trainer.step(&mut state)?;
-        if auto_on && state.step == auto_step && depth_auto.is_none() && !trainer.has_depth_prior()
-        {
+        if auto_on && state.step == auto_step && depth_auto.is_none() {
             let check = run_auto_check(cfg, &model, &state, &cameras, &data, &auto_path, quiet)?;
             if check.triggered && state.step < iters {
-                let on = cfg.train.depth.switched_on(auto_step);
-                let (prior, summary) = stereo_prior(&on, &cameras, &data, quiet);
-                depth_maps = Some(summary);
-                trainer.set_depth_prior(prior);
+                depth_maps = Some(switch_on(&mut trainer));
             }
             depth_auto = Some(check);
         }

@@ -213,9 +213,10 @@ pub struct DepthConfig {
     /// with the hole fill: 5 gives the suite a mean ratio to the floor of 2.14× without cup
     /// (2.20× off) and cup 1.27 mm (4.81 off; 1.24 at seed 1); without the hole fill cup
     /// wanted 20–40 (1.37–1.47 mm), which cost the other scenes and their genus
-    /// (`results/geometry/depth-prior-2026-11-27`, `results/geometry/depth-holes-2026-11-28`). With the hole fill's refit and free-space
-    /// check, cup 1.118 / 1.211 mm at 5 and 0.970 / 1.045 at 10 (seeds 0 / 1; 1.07 at 20,
-    /// scratch) (`results/geometry/free-space-2026-11-28`). Over the rest of the suite 10 costs
+    /// (`results/geometry/depth-prior-2026-11-27`, `results/geometry/depth-holes-2026-11-28`).
+    /// With the hole fill's refit and free-space check, cup 1.118 / 1.211 mm at 5 and
+    /// 0.970 / 1.045 at 10 (seeds 0 / 1; 1.07 at 20, scratch)
+    /// (`results/geometry/free-space-2026-11-28`). Over the rest of the suite 10 costs
     /// nothing against 5 (mean ratio without cup 2.17× / 2.19× at seeds 0 / 1 at both weights),
     /// so 10 is the weight to pass; thin parts lose against off (rods 1.47× → 2.03× at seed 0)
     /// (`results/geometry/w10-suite-2026-11-28`).
@@ -497,7 +498,8 @@ impl DepthConfig {
     }
 
     /// This prior as the automatic switch turns it on after step `check_step`: weight
-    /// `auto.weight` (to `final_weight` when one is set), from the later of `start_step` and the step after the check.
+    /// `auto.weight` (to `final_weight` when one is set), from the later of `start_step` and
+    /// `check_step` (the first step after the check).
     pub fn switched_on(&self, check_step: u64) -> Self {
         Self {
             weight: self.auto.weight,
@@ -584,6 +586,13 @@ impl View {
     /// The ray direction through pixel coordinates `(u, v)`, scaled so its camera `z` is 1.
     fn dir(&self, u: f64, v: f64) -> Vector3<f64> {
         self.r.transpose() * (self.kinv * Vector3::new(u, v, 1.0))
+    }
+
+    /// The distance along the unit ray through the centre of pixel `k` of the point at camera
+    /// depth `z` (NaN stays NaN): what [`DepthMaps::t`] holds.
+    fn ray_distance(&self, k: usize, z: f32) -> f32 {
+        let d = self.dir((k % self.w) as f64 + 0.5, (k / self.w) as f64 + 0.5);
+        (z as f64 * d.norm()) as f32
     }
 
     /// The world point at camera depth `z` through the centre of pixel `k`.
@@ -673,10 +682,7 @@ pub fn depth_maps(
         .map(|(m, v)| {
             m.iter()
                 .enumerate()
-                .map(|(k, &zz)| {
-                    let d = v.dir((k % v.w) as f64 + 0.5, (k / v.w) as f64 + 0.5);
-                    (zz as f64 * d.norm()) as f32
-                })
+                .map(|(k, &zz)| v.ray_distance(k, zz))
                 .collect()
         })
         .collect();
@@ -759,11 +765,11 @@ pub fn sweep_depths(
                 .iter()
                 .enumerate()
                 .map(|(k, &z)| {
-                    if !v.mask[k] || !z.is_finite() {
-                        return f32::NAN;
+                    if v.mask[k] {
+                        v.ray_distance(k, z)
+                    } else {
+                        f32::NAN
                     }
-                    let d = v.dir((k % v.w) as f64 + 0.5, (k / v.w) as f64 + 0.5);
-                    (z as f64 * d.norm()) as f32
                 })
                 .collect()
         })

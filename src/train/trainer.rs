@@ -201,11 +201,6 @@ impl<'a> Trainer<'a> {
         self.depth = Some(prior);
     }
 
-    /// Whether a depth prior is attached.
-    pub fn has_depth_prior(&self) -> bool {
-        self.depth.is_some()
-    }
-
     /// The state at step 0: seeded parameters, fresh moments, an all-occupied grid.
     pub fn initial_state(&self) -> TrainState {
         TrainState {
