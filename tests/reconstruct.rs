@@ -98,6 +98,19 @@ fn same_seed_gives_the_same_mesh_and_all_outputs_exist() {
     assert_eq!(m["gt_genus"].as_i64(), Some(0), "{m}");
     let genus = m["mesh"]["largest_genus"].as_i64().unwrap();
     assert_eq!(m["genus_matches"].as_bool(), Some(genus == 0), "{m}");
+    // The seen floor: the truth cut by rule 4 with the run's training cameras (the tiny rig looks
+    // from above: the underside goes), scored by the same protocol, and the ratio to it.
+    let seen = &m["floor_seen"];
+    assert_eq!(seen["min_views"].as_u64(), Some(2), "{m}");
+    let cut = seen["area_share_cut"].as_f64().unwrap();
+    assert!(cut > 0.05 && cut < 0.9, "{seen}");
+    let seen_floor = seen["chamfer_sum"].as_f64().unwrap();
+    assert!(seen_floor.is_finite() && seen_floor > 0.0, "{seen}");
+    assert_eq!(
+        m["ratio_to_floor_seen"].as_f64(),
+        Some(chamfer / seen_floor),
+        "{m}"
+    );
     // Rule 4 of the clean-up: `mesh.ply` is the part two training cameras see (the tiny rig is
     // DTU's, above the object: the underside goes), `mesh_closed.ply` the closed surface it was
     // cut from, and both are scored.

@@ -539,6 +539,12 @@ fn hard_report_from_known_numbers_and_an_old_record() {
         m["gt_genus"] = truth.into();
         m["genus_matches"] = (genus == truth).into();
         m["normal_error_deg"] = 5.0.into();
+        // The seen floor on the torus baseline only (the other arms' records predate it).
+        if r.scene == "torus" && r.arm == AugMode::None {
+            m["floor_seen"] = serde_json::json!({"chamfer_sum": 0.25, "mean_d2s": 0.1,
+                "mean_s2d": 0.15, "min_views": 2, "area_share_cut": 0.3, "faces_judged": 100});
+            m["ratio_to_floor_seen"] = (chamfer(r) / 0.25).into();
+        }
         m["mesh"] = serde_json::json!({"vertices": 50, "faces": 90, "components": 1,
             "genus": genus, "largest_genus": genus, "raw_components": 5, "raw_faces": 100});
         // The depth prior: switched on by its check in one run, asked for in another.
@@ -564,8 +570,14 @@ fn hard_report_from_known_numbers_and_an_old_record() {
         "| torus | baseline | 3/3 | 1.100 | 0.200 | 5.50 | 3/3 | 1, 1, 1 (1) | 5.0 → 1.0 | 5.0 | 25.00 |",
         "| torus | DIA | 3/3 | 1.300 | 0.200 | 6.50 | 2/3 | 1, 0, 1 (1) |",
         "| torus | SIA | 3/3 | 0.900 | 0.200 | 4.50 | 3/3 |",
-        // The suite mean of the baseline's ratio: (2.20 + 5.50) / 2.
+        // The seen floor and the ratio to it (1.1 / 0.25), unknown where the records lack it.
+        "| 5.0 | 25.00 | 0.250 | 4.40 |",
+        "| blob | baseline | 3/3 | 0.600 | 0.250 | 2.20 | 2/2 | 0, 0, — (0) | 5.0 → 1.0 | 5.0 | 25.00 | — | — |",
+        "| torus | DIA | 3/3 | 1.300 | 0.200 | 6.50 | 2/3 | 1, 0, 1 (1) | 5.0 → 1.0 | 5.0 | 25.00 | — | — |",
+        // The suite mean of the baseline's ratio: (2.20 + 5.50) / 2; to the seen floor, the
+        // torus alone.
         "ratio to the floor **3.85×**",
+        "Ratio to the seen floor: 4.40×.",
         // blob (2.20) is within 4× its floor, the torus baseline (5.50) is not.
         "Scenes within 4× their floor: 1/2.",
         // Genus on the scenes with holes: 8 of 9 on the torus.
@@ -582,7 +594,7 @@ fn hard_report_from_known_numbers_and_an_old_record() {
     assert!(!md.contains("| blob | +"), "no paired row for blob:\n{md}");
     let csv = std::fs::read_to_string(to.join("runs.csv")).unwrap();
     let header = csv.lines().next().unwrap();
-    assert!(header.ends_with(",time_to_mesh,floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,normal_error_deg,chamfer_closed,depth_prior"), "{header}");
+    assert!(header.ends_with(",time_to_mesh,floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,normal_error_deg,chamfer_closed,depth_prior,floor_seen_mm,ratio_to_floor_seen"), "{header}");
     let old = csv
         .lines()
         .find(|l| l.starts_with("blob-baseline-s2,"))
@@ -593,8 +605,12 @@ fn hard_report_from_known_numbers_and_an_old_record() {
         .lines()
         .find(|l| l.starts_with("torus-dia-s1,"))
         .unwrap();
-    assert!(torus.ends_with(",off"), "{torus}");
-    for (id, what) in [("torus-sia-s1", "switched on"), ("torus-sia-s2", "asked")] {
+    assert!(torus.ends_with(",off,,"), "{torus}");
+    for (id, what) in [
+        ("torus-sia-s1", "switched on,,"),
+        ("torus-sia-s2", "asked,,"),
+        ("torus-baseline-s0", "off,0.25,4"),
+    ] {
         let l = csv
             .lines()
             .find(|l| l.starts_with(&format!("{id},")))
@@ -607,6 +623,10 @@ fn hard_report_from_known_numbers_and_an_old_record() {
     let suite = &summary["geometry"]["suite"][0];
     assert!(
         (suite["ratio_mean"].as_f64().unwrap() - 3.85).abs() < 1e-9,
+        "{suite}"
+    );
+    assert!(
+        (suite["ratio_seen_mean"].as_f64().unwrap() - 4.4).abs() < 1e-9,
         "{suite}"
     );
     assert_eq!(suite["scenes"], 2);

@@ -44,6 +44,7 @@ pub mod extract;
 mod mcubes;
 pub mod reference;
 pub mod sdf;
+pub mod subdivide;
 pub mod tables;
 pub mod topology;
 

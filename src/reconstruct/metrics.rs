@@ -199,6 +199,14 @@ pub struct Metrics {
     /// `chamfer.chamfer_sum / floor_mm` (1 would be perfect); `None` when either is missing.
     #[serde(default)]
     pub ratio_to_floor: Option<f64>,
+    /// The seen floor (`reconstruct::seen_floor`): the true mesh (`gt_mesh.ply`) cut by rule 4
+    /// of the clean-up with this run's training cameras, scored by the same protocol. `None`
+    /// where `floor_mm` is, without `gt_mesh.ply`, without rule 4, and in older records.
+    #[serde(default)]
+    pub floor_seen: Option<super::seen_floor::SeenFloor>,
+    /// `chamfer.chamfer_sum / floor_seen.chamfer_sum`; `None` when either is missing.
+    #[serde(default)]
+    pub ratio_to_floor_seen: Option<f64>,
     /// Genus of the true mesh's largest component (`meta.json`'s `mesh_genus`); `None` unknown.
     #[serde(default)]
     pub gt_genus: Option<i64>,
@@ -251,6 +259,7 @@ mod tests {
             (None, None, None, None)
         );
         assert_eq!(m.mesh.largest_genus, None);
+        assert_eq!((m.floor_seen, m.ratio_to_floor_seen), (None, None));
         // A record without its Chamfer sum or its hash is an error, not a zero.
         let bad = old.replace(",\n            \"chamfer_sum\":0.9", "");
         assert!(serde_json::from_str::<Metrics>(&bad).is_err());

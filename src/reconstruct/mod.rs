@@ -27,6 +27,7 @@ pub mod normal_error;
 mod output;
 mod overrides;
 mod preset;
+pub mod seen_floor;
 mod truth;
 
 pub use config::{
@@ -40,7 +41,7 @@ pub use metrics::{
 pub use output::output_dir;
 use output::{check_output, remove_if_present};
 pub use preset::scale_run_length;
-use truth::{find_gt, GeometryVsTruth};
+use truth::{find_gt, own_truth, GeometryVsTruth};
 
 use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
 use crate::mesh::clean::{clean_mesh, cull_unseen_parts, CleanOptions};
@@ -983,6 +984,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let t = Instant::now();
     let truth = sim::SceneTruth::read(&scene_ref.dir);
     let mut chamfer_closed = None;
+    let mut floor_seen = None;
     let (chamfer, eval_note) = if !cfg.eval.enabled {
         (
             None,
@@ -1023,6 +1025,42 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                     let c = dtu_eval::protocol::evaluate_mesh(&closed, &gt, &params, cfg.seed)?;
                     chamfer_closed = Some(figures(&c));
                 }
+                // The seen floor: the true mesh cut by rule 4 with these training cameras, where
+                // the run is scored against the scene's own truth and the folder has its mesh.
+                let truth_mesh = scene_ref.dir.join("gt_mesh.ply");
+                if cfg.mesh.clean
+                    && cfg.mesh.clean_min_visible_views > 0
+                    && truth.floor.is_some()
+                    && own_truth(&truth, &cfg.eval, &scene_ref)
+                    && truth_mesh.is_file()
+                {
+                    let rule = seen_floor::SeenRule {
+                        min_views: cfg.mesh.clean_min_visible_views,
+                        margin_mm: cfg.mesh.clean_visible_margin_mm,
+                        min_area_share: cfg.mesh.clean_min_area_share,
+                    };
+                    // A diagnostic: a true mesh it cannot use costs the figure, not the run.
+                    let seen = dtu_eval::ply::read_mesh(&truth_mesh)
+                        .map_err(|e| e.to_string())
+                        .and_then(|m| {
+                            seen_floor::seen_floor(
+                                &m,
+                                &scene.normalization,
+                                &cameras,
+                                &rule,
+                                &gt,
+                                &params,
+                                cfg.seed,
+                            )
+                            .map_err(|e| e.to_string())
+                        });
+                    match seen {
+                        Ok(f) => floor_seen = f,
+                        Err(e) => {
+                            eprintln!("warning: no seen floor ({}: {e})", truth_mesh.display())
+                        }
+                    }
+                }
                 (Some(figures(&e)), None)
             }
         }
@@ -1042,6 +1080,22 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     }
     if let (Some(f), Some(r)) = (geometry.floor_mm, geometry.ratio_to_floor) {
         say(quiet, format!("floor {f:.3} mm: Chamfer {r:.2}× the floor"));
+    }
+    let ratio_to_floor_seen = match (&chamfer, &floor_seen) {
+        (Some(c), Some(f)) if f.chamfer_sum > 0.0 => Some(c.chamfer_sum / f.chamfer_sum),
+        _ => None,
+    };
+    if let (Some(f), Some(r)) = (&floor_seen, ratio_to_floor_seen) {
+        say(
+            quiet,
+            format!(
+                "seen floor {:.3} mm (the truth less the {:.1} % of its area that fewer than {} \
+                 training cameras see): Chamfer {r:.2}× it",
+                f.chamfer_sum,
+                100.0 * f.area_share_cut,
+                f.min_views
+            ),
+        );
     }
     if let Some(g) = geometry.gt_genus {
         say(
@@ -1173,6 +1227,8 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         normal_error_deg: (nerr_px > 0).then(|| nerr_sum / nerr_px as f64),
         floor_mm: geometry.floor_mm,
         ratio_to_floor: geometry.ratio_to_floor,
+        floor_seen,
+        ratio_to_floor_seen,
         gt_genus: geometry.gt_genus,
         genus_matches: geometry.genus_matches,
         mask_iou_heldout: mean(&|m| m.mask_iou),

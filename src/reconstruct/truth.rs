@@ -48,6 +48,13 @@ pub(super) fn find_gt(
     Ok((root, scan))
 }
 
+/// Whether the run is scored against the scene's own truth (the floor's, `meta.json`'s): not
+/// with `eval.gt_root` or `eval.scan` pointing elsewhere.
+pub(super) fn own_truth(truth: &sim::SceneTruth, eval: &EvalConfig, scene: &ResolvedScene) -> bool {
+    eval.gt_root.as_ref().is_none_or(|r| *r == scene.dir)
+        && eval.scan.is_none_or(|s| truth.scan == Some(s))
+}
+
 /// The geometry figures judged against the scene's truth (`meta.json`, [`sim::SceneTruth`]).
 pub(super) struct GeometryVsTruth {
     pub(super) floor_mm: Option<f64>,
@@ -70,8 +77,7 @@ impl GeometryVsTruth {
         chamfer: Option<&ChamferMetrics>,
         topo: &TopologyReport,
     ) -> Self {
-        let own_gt = eval.gt_root.as_ref().is_none_or(|r| *r == scene.dir)
-            && eval.scan.is_none_or(|s| truth.scan == Some(s));
+        let own_gt = own_truth(truth, eval, scene);
         let floor_mm = truth
             .floor
             .filter(|_| own_gt)

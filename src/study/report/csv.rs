@@ -29,7 +29,7 @@ pub(super) fn runs_csv(records: &[RunRecord]) -> String {
     if geometry {
         s.push_str(
             ",floor_mm,ratio_to_floor,genus,gt_genus,genus_matches,components_raw,components,\
-             normal_error_deg,chamfer_closed,depth_prior",
+             normal_error_deg,chamfer_closed,depth_prior,floor_seen_mm,ratio_to_floor_seen",
         );
     }
     s.push('\n');
@@ -76,6 +76,8 @@ pub(super) fn runs_csv(records: &[RunRecord]) -> String {
                 csv_opt(g.normal_error_deg),
                 csv_opt(g.chamfer_closed),
                 csv_field(g.depth_prior.as_deref().unwrap_or("")),
+                csv_opt(g.floor_seen),
+                csv_opt(g.ratio_to_floor_seen),
             ];
             s.push(',');
             s.push_str(&f.join(","));

@@ -3,8 +3,10 @@
 //!
 //! Per scene and arm, mean over seeds: Chamfer, the scene's floor (its true mesh scored by the
 //! same protocol, `sim::Floor`), the ratio to the floor, how many runs' largest component has the
-//! true genus, components before → after clean-up, the held-out normal error and PSNR; then
-//! the suite mean of the ratio, genus on the scenes with holes per arm, and every run.
+//! true genus, components before → after clean-up, the held-out normal error and PSNR, the seen
+//! floor (the true mesh cut by rule 4 of the clean-up, `reconstruct::seen_floor`) and the ratio
+//! to it; then the suite mean of the ratios, genus on the scenes with holes per arm, and every
+//! run.
 
 use super::super::grid::arm_title;
 use super::layout::{m_chamfer, m_psnr, Layout, Metric, Row};
@@ -26,6 +28,9 @@ fn m_floor(r: &RunRecord) -> Option<f64> {
 }
 fn m_ratio(r: &RunRecord) -> Option<f64> {
     geo(r)?.ratio_to_floor
+}
+fn m_ratio_seen(r: &RunRecord) -> Option<f64> {
+    geo(r)?.ratio_to_floor_seen
 }
 fn m_normal(r: &RunRecord) -> Option<f64> {
     geo(r)?.normal_error_deg
@@ -59,6 +64,9 @@ pub(super) struct GeometryCell {
     pub(super) components_mean: Option<f64>,
     pub(super) normal_error_mean: Option<f64>,
     pub(super) psnr_mean: Option<f64>,
+    /// The seen floor (the same for every seed of a cell: same scene, same training views).
+    pub(super) floor_seen_mm: Option<f64>,
+    pub(super) ratio_seen_mean: Option<f64>,
 }
 
 /// What `summary.json` holds of the geometry (`geometry`).
@@ -77,6 +85,8 @@ pub(super) struct SuiteMean {
     pub(super) ratio_mean: Option<f64>,
     pub(super) chamfer_mean: Option<f64>,
     pub(super) floor_mean: Option<f64>,
+    /// Mean over scenes of the per-scene mean ratio to the seen floor.
+    pub(super) ratio_seen_mean: Option<f64>,
     /// Scenes with a ratio, and those whose mean ratio is at most [`RATIO_TARGET`].
     pub(super) scenes: usize,
     pub(super) scenes_within_target: usize,
@@ -145,6 +155,8 @@ pub(super) fn summarise(lay: &Layout<'_>) -> GeometrySummary {
                     components_mean: mean(m_components),
                     normal_error_mean: mean(m_normal),
                     psnr_mean: mean(m_psnr),
+                    floor_seen_mm: recs.iter().find_map(|r| geo(r)?.floor_seen),
+                    ratio_seen_mean: mean(m_ratio_seen),
                 });
             }
         }
@@ -162,6 +174,7 @@ pub(super) fn summarise(lay: &Layout<'_>) -> GeometrySummary {
             ratio_mean: avg(&|x| x.ratio_mean),
             chamfer_mean: avg(&|x| x.chamfer_mean),
             floor_mean: avg(&|x| x.floor_mm),
+            ratio_seen_mean: avg(&|x| x.ratio_seen_mean),
             scenes: per_scene.iter().filter(|x| x.ratio_mean.is_some()).count(),
             scenes_within_target: per_scene
                 .iter()
@@ -204,7 +217,9 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
          asks ≤ 4). Genus: of the largest component of the written (cleaned) mesh, per seed, \
          with the truth's in parentheses; `=` counts the runs where they agree. Components: \
          before → after clean-up. Normal error: mean angle between rendered and true normals on \
-         the held-out views (°). PSNR: held-out views (dB).\n"
+         the held-out views (°). PSNR: held-out views (dB). Seen floor: the true mesh less what \
+         fewer training cameras see than the clean-up's rule 4 keeps, scored the same way (what \
+         a perfect reconstruction gets after that cut); × seen = Chamfer / seen floor.\n"
     );
     let t: Vec<Vec<String>> = sum
         .cells
@@ -230,6 +245,8 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
                 components(x.components_raw_mean, x.components_mean),
                 fmt_opt(x.normal_error_mean, 1),
                 fmt_opt(x.psnr_mean, 2),
+                fmt_opt(x.floor_seen_mm, 3),
+                fmt_opt(x.ratio_seen_mean, 2),
             ]
         })
         .collect();
@@ -247,6 +264,8 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
             "components",
             "normal error (°)",
             "PSNR",
+            "seen floor",
+            "× seen",
         ]
         .map(String::from),
         &t,
@@ -255,7 +274,8 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
         let _ = writeln!(
             md,
             "Suite mean{} ({}, {} scene(s) with a ratio): ratio to the floor **{}**; Chamfer {} mm \
-             against a mean floor of {} mm. Scenes within {}× their floor: {}/{}.\n",
+             against a mean floor of {} mm. Scenes within {}× their floor: {}/{}. Ratio to the \
+             seen floor: {}.\n",
             if many_conds {
                 format!(" of {}", m.condition)
             } else {
@@ -269,6 +289,7 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
             RATIO_TARGET,
             m.scenes_within_target,
             m.scenes,
+            m.ratio_seen_mean.map_or("—".into(), |x| format!("{x:.2}×")),
         );
     }
 
@@ -357,6 +378,8 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
                 fmt_opt(r.psnr, 2),
                 fmt_opt(g.chamfer_closed, 3),
                 g.depth_prior.clone().unwrap_or_else(|| "—".into()),
+                fmt_opt(g.floor_seen, 3),
+                fmt_opt(g.ratio_to_floor_seen, 2),
             ]
         })
         .collect();
@@ -373,6 +396,8 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
             "PSNR",
             "Chamfer, closed mesh",
             "depth prior",
+            "seen floor",
+            "× seen",
         ]
         .map(String::from),
         &t,

@@ -78,6 +78,11 @@ pub struct GeometryRecord {
     pub chamfer_closed: Option<f64>,
     /// Mean angle between rendered and true normals on the held-out views (degrees).
     pub normal_error_deg: Option<f64>,
+    /// The seen floor (mm, `metrics.json` `floor_seen`): the true mesh cut by rule 4 of the
+    /// clean-up with the run's training cameras, scored by the same protocol.
+    pub floor_seen: Option<f64>,
+    /// Chamfer sum / seen floor.
+    pub ratio_to_floor_seen: Option<f64>,
     /// The depth prior (`train.depth`): `"asked"` (weight > 0 in the config), `"switched on"`
     /// (its automatic switch fired, `train.depth_auto`) or `"off"`; unknown for a record
     /// without a floor.
@@ -94,6 +99,8 @@ impl GeometryRecord {
         Self {
             floor_mm: m.floor_mm,
             ratio_to_floor: m.ratio_to_floor,
+            floor_seen: m.floor_seen.as_ref().map(|f| f.chamfer_sum),
+            ratio_to_floor_seen: m.ratio_to_floor_seen,
             genus: m.mesh.largest_genus,
             gt_genus: m.gt_genus,
             genus_matches: m.genus_matches,
