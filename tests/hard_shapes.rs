@@ -16,16 +16,23 @@ mod common;
 use common::tiny::neus_aug;
 use neus_aug::sim;
 
-#[test]
-fn torus_hole_stays_open() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = tmp.path().join("torus");
-    let mut desc = sim::builtin("torus").unwrap();
+/// Writes the built-in scene `name` into `dir` at the size these tests use (24 views at 100×75,
+/// one sample per pixel, ground-truth points every 1 mm); returns its DTU scan number.
+fn small_scene(name: &str, dir: &std::path::Path) -> u32 {
+    let mut desc = sim::builtin(name).unwrap();
     desc.rig.views = 24;
     desc.rig.resolution = [100, 75];
     desc.render.spp = 1;
     desc.gt.spacing_mm = 1.0;
-    sim::generate(&desc, &scene, &Default::default()).unwrap();
+    sim::generate(&desc, dir, &Default::default()).unwrap();
+    desc.scan
+}
+
+#[test]
+fn torus_hole_stays_open() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("torus");
+    small_scene("torus", &scene);
     let out = tmp.path().join("run");
     let o = neus_aug()
         .arg("reconstruct")
@@ -81,12 +88,7 @@ fn depth_auto_switch_fires_on_a_cup_and_not_on_a_blob() {
     let tmp = tempfile::tempdir().unwrap();
     for (name, fires) in [("cup", true), ("blob", false)] {
         let scene = tmp.path().join(name);
-        let mut desc = sim::builtin(name).unwrap();
-        desc.rig.views = 24;
-        desc.rig.resolution = [100, 75];
-        desc.render.spp = 1;
-        desc.gt.spacing_mm = 1.0;
-        sim::generate(&desc, &scene, &Default::default()).unwrap();
+        small_scene(name, &scene);
         let out = tmp.path().join(format!("{name}-run"));
         let o = neus_aug()
             .arg("reconstruct")
@@ -132,15 +134,10 @@ fn the_seen_floor_cuts_what_one_camera_sees() {
     let mut extra = Vec::new();
     for name in ["cup", "blob"] {
         let dir = tmp.path().join(name);
-        let mut desc = sim::builtin(name).unwrap();
-        desc.rig.views = 24;
-        desc.rig.resolution = [100, 75];
-        desc.render.spp = 1;
-        desc.gt.spacing_mm = 1.0;
-        sim::generate(&desc, &dir, &Default::default()).unwrap();
+        let scan = small_scene(name, &dir);
         let scene = Scene::load(&dir, &LoadOptions::default()).unwrap();
         let cameras: Vec<_> = scene.views.iter().map(|v| &v.camera).collect();
-        let gt = dtu_eval::protocol::GroundTruth::load(&dir, desc.scan).unwrap();
+        let gt = dtu_eval::protocol::GroundTruth::load(&dir, scan).unwrap();
         let truth = dtu_eval::ply::read_mesh(&dir.join("gt_mesh.ply")).unwrap();
         let floor = sim::SceneTruth::read(&dir).floor.unwrap();
         let params = dtu_eval::report::DtuParams::default();
@@ -197,6 +194,34 @@ fn the_seen_floor_cuts_what_one_camera_sees() {
     );
 }
 
+/// `reconstruct SCENE --config CFG --out OUT --set SET --quiet`, which must succeed; its stderr
+/// and `metrics.json`.
+fn reconstruct_tiny(
+    scene: &std::path::Path,
+    cfg: &std::path::Path,
+    out: &std::path::Path,
+    set: &str,
+) -> (String, serde_json::Value) {
+    let o = neus_aug()
+        .arg("reconstruct")
+        .arg(scene)
+        .args([
+            "--config",
+            cfg.to_str().unwrap(),
+            "--quiet",
+            "--set",
+            set,
+            "--out",
+        ])
+        .arg(out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(o.status.success(), "{err}");
+    let m = serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap());
+    (err, m.unwrap())
+}
+
 /// A run whose SDF never crosses zero (a sphere init far below one marching-cubes cell and no
 /// visual-hull start, one step) finishes with a note instead of failing after training:
 /// `metrics.json` says the mesh is empty and has no Chamfer figure.
@@ -208,21 +233,14 @@ fn an_empty_mesh_is_reported_not_a_failure() {
         1,
         "[model.field.sdf]\nsphere_init_radius = 0.001\n",
     );
-    let out = tmp.path().join("run");
-    let o = neus_aug()
-        .arg("reconstruct")
-        .arg(common::tiny::scene())
-        .args(["--config", cfg.to_str().unwrap(), "--quiet", "--out"])
-        .arg(&out)
-        // The sphere init alone: the preset's visual-hull start would give a surface.
-        .args(["--set", "train.init.kind=\"sphere\""])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{err}");
+    // The sphere init alone: the preset's visual-hull start would give a surface.
+    let (err, m) = reconstruct_tiny(
+        common::tiny::scene(),
+        &cfg,
+        &tmp.path().join("run"),
+        "train.init.kind=\"sphere\"",
+    );
     assert!(err.contains("the mesh is empty"), "{err}");
-    let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     assert!(m["chamfer"].is_null(), "{m:#}");
     assert!(m["eval_note"].as_str().unwrap().contains("empty"));
     assert_eq!(m["mesh"]["faces"].as_u64(), Some(0));
@@ -258,20 +276,8 @@ fn an_unreadable_true_mesh_costs_the_seen_floor_not_the_run() {
     }
     std::fs::write(scene.join("gt_mesh.ply"), "not a ply\n").unwrap();
     let cfg = common::tiny::write_config(tmp.path(), 24, "");
-    let out = tmp.path().join("run");
-    let o = neus_aug()
-        .arg("reconstruct")
-        .arg(&scene)
-        .args(["--config", cfg.to_str().unwrap(), "--quiet", "--out"])
-        .arg(&out)
-        .args(["--set", "data.holdout=0"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{err}");
+    let (err, m) = reconstruct_tiny(&scene, &cfg, &tmp.path().join("run"), "data.holdout=0");
     assert!(err.contains("warning: no seen floor"), "{err}");
-    let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("metrics.json")).unwrap()).unwrap();
     assert!(m["chamfer"]["chamfer_sum"].as_f64().unwrap().is_finite());
     assert!(m["floor_mm"].as_f64().unwrap() > 0.0, "{m:#}");
     assert!(m["floor_seen"].is_null(), "{m:#}");

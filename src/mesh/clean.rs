@@ -160,6 +160,11 @@ fn face_area(mesh: &TriMesh, f: &[u32; 3]) -> f64 {
     0.5 * (b - a).cross(&(c - a)).norm()
 }
 
+/// Total area of the mesh (its units squared, f64).
+pub fn surface_area(mesh: &TriMesh) -> f64 {
+    mesh.faces.iter().map(|f| face_area(mesh, f)).sum()
+}
+
 /// The mesh restricted to the faces with `keep[i]`, unused vertices dropped (order kept).
 pub fn keep_faces(mesh: &TriMesh, keep: &[bool]) -> TriMesh {
     assert_eq!(keep.len(), mesh.faces.len(), "one flag per face");

@@ -71,17 +71,8 @@ pub fn subdivide_to(mesh: &TriMesh, max_edge: f64, max_faces: usize) -> (TriMesh
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mesh::clean::surface_area as area;
     use crate::mesh::{marching_cubes, sdf::Shape, GridSpec, McOptions, TopologyReport};
-
-    fn area(m: &TriMesh) -> f64 {
-        m.faces
-            .iter()
-            .map(|f| {
-                let p = |i: u32| nalgebra::Vector3::from(m.vertices[i as usize].map(f64::from));
-                (p(f[1]) - p(f[0])).cross(&(p(f[2]) - p(f[0]))).norm() * 0.5
-            })
-            .sum()
-    }
 
     #[test]
     fn a_closed_torus_stays_closed_in_place_and_oriented() {

@@ -19,7 +19,7 @@
 //! the cut then follows the visible region to about a millimetre, as it does on a
 //! reconstruction (marching-cubes cells of 0.5–1 mm at the presets' `mesh.fine_res`).
 
-use crate::mesh::clean::{grow_by_distance, split_unseen, visibility_filter};
+use crate::mesh::clean::{grow_by_distance, split_unseen, surface_area, visibility_filter};
 use crate::mesh::subdivide::subdivide_to;
 use crate::mesh::TriMesh;
 use crate::scene::dtu::Normalization;
@@ -57,16 +57,6 @@ pub struct SeenFloor {
     pub area_share_cut: f64,
     /// Faces of the subdivided true mesh that the rule judged.
     pub faces_judged: usize,
-}
-
-fn area(m: &TriMesh) -> f64 {
-    m.faces
-        .iter()
-        .map(|f| {
-            let p = |i: u32| nalgebra::Vector3::from(m.vertices[i as usize].map(f64::from));
-            (p(f[1]) - p(f[0])).cross(&(p(f[2]) - p(f[0]))).norm() * 0.5
-        })
-        .sum()
 }
 
 /// Cuts `truth_world` (world mm) by rule 4 with `cameras` (the run's training cameras, in the
@@ -120,11 +110,11 @@ pub fn seen_floor(
     if seen.faces.is_empty() {
         return Ok(None);
     }
-    let total = area(truth_world);
+    let total = surface_area(truth_world);
     let area_share_cut = if seen.faces.len() == truth_world.faces.len() {
         0.0
     } else if total > 0.0 {
-        (1.0 - area(&seen) / total).clamp(0.0, 1.0)
+        (1.0 - surface_area(&seen) / total).clamp(0.0, 1.0)
     } else {
         0.0
     };
