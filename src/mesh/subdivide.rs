@@ -108,6 +108,54 @@ mod tests {
         assert!((longest_edge(&s) - 0.5 * longest_edge(&m)).abs() < 1e-6);
     }
 
+    /// After `L` levels the pieces of face `i` are faces `i·4^L .. (i+1)·4^L`, and they tile it:
+    /// each lies in the parent's plane, inside it, and their areas add up to the parent's (what
+    /// `reconstruct::seen_floor` relies on to score uncut faces whole).
+    #[test]
+    fn the_pieces_of_a_face_follow_it_in_one_block() {
+        let m = TriMesh {
+            vertices: vec![
+                [0.0, 0.0, 0.0],
+                [2.0, 0.0, 0.0],
+                [0.0, 2.0, 0.0],
+                [0.0, 0.0, 3.0],
+            ],
+            faces: vec![[0, 1, 2], [0, 3, 1], [1, 3, 2], [0, 2, 3]],
+        };
+        let (s, levels) = subdivide_to(&m, 0.6, 1 << 20);
+        let block = 4usize.pow(levels);
+        assert!(levels >= 2 && s.faces.len() == m.faces.len() * block);
+        let v =
+            |m: &TriMesh, i: u32| nalgebra::Vector3::from(m.vertices[i as usize].map(f64::from));
+        for (i, f) in m.faces.iter().enumerate() {
+            let (a, b, c) = (v(&m, f[0]), v(&m, f[1]), v(&m, f[2]));
+            let n = (b - a).cross(&(c - a));
+            let parent = TriMesh {
+                vertices: m.vertices.clone(),
+                faces: vec![*f],
+            };
+            let pieces = TriMesh {
+                vertices: s.vertices.clone(),
+                faces: s.faces[i * block..(i + 1) * block].to_vec(),
+            };
+            assert!((area(&pieces) - area(&parent)).abs() < 1e-5 * area(&parent));
+            for g in &pieces.faces {
+                let p = (v(&s, g[0]) + v(&s, g[1]) + v(&s, g[2])) / 3.0;
+                assert!(
+                    (p - a).dot(&n).abs() < 1e-5 * n.norm(),
+                    "face {i}: off its plane"
+                );
+                // Inside: on the inner side of each of the parent's edges.
+                for (x, y) in [(a, b), (b, c), (c, a)] {
+                    assert!(
+                        (y - x).cross(&(p - x)).dot(&n) > 0.0,
+                        "face {i}: outside it"
+                    );
+                }
+            }
+        }
+    }
+
     #[test]
     fn subdivision_stops_at_the_edge_length_or_the_face_cap() {
         let tri = TriMesh {

@@ -11,7 +11,7 @@
 //! `chamfer_sum / floor_seen` says how far the training is from what the rig and the rule let
 //! it reach, and `floor_seen − floor` what the rule costs on this scene and rig. On the built-in
 //! scenes with the default rig and 3 held-out views the cut costs at most 0.04 mm of
-//! completeness, but 0.16 mm on `cup`, whose inner wall near the bottom only one camera sees
+//! completeness, but 0.17 mm on `cup`, whose inner wall near the bottom only one camera sees
 //! (`results/geometry/seen-floor-2026-11-28`).
 //!
 //! The visibility test looks at face centroids, so the true mesh is first subdivided
