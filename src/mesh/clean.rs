@@ -574,8 +574,18 @@ pub fn split_unseen(mesh: &TriMesh, seen: &[bool], min_area_share: f64) -> Unsee
     }
 }
 
-/// [`split_unseen`] on the faces that at least `min_views` of `cameras` see, grown by `margin`
-/// (as [`cull_unseen`]). `min_views = 0`, or no cameras, returns the mesh unchanged twice.
+/// Rule 4's verdict per face: seen by at least `min_views` of `cameras`
+/// ([`visibility_filter`]), grown by `margin` ([`grow_by_distance`]). All `true` when
+/// `min_views = 0` or there are no cameras.
+pub fn seen_faces(mesh: &TriMesh, cameras: &[&Camera], min_views: usize, margin: f64) -> Vec<bool> {
+    if min_views == 0 || cameras.is_empty() {
+        return vec![true; mesh.faces.len()];
+    }
+    grow_by_distance(mesh, &visibility_filter(mesh, cameras, min_views), margin)
+}
+
+/// [`split_unseen`] on [`seen_faces`] (as [`cull_unseen`]). `min_views = 0`, or no cameras,
+/// returns the mesh unchanged twice.
 pub fn cull_unseen_parts(
     mesh: &TriMesh,
     cameras: &[&Camera],
@@ -586,8 +596,11 @@ pub fn cull_unseen_parts(
     if min_views == 0 || cameras.is_empty() {
         return split_unseen(mesh, &vec![true; mesh.faces.len()], 0.0);
     }
-    let keep = grow_by_distance(mesh, &visibility_filter(mesh, cameras, min_views), margin);
-    split_unseen(mesh, &keep, min_area_share)
+    split_unseen(
+        mesh,
+        &seen_faces(mesh, cameras, min_views, margin),
+        min_area_share,
+    )
 }
 
 #[cfg(test)]

@@ -983,6 +983,16 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     // Evaluation.
     let t = Instant::now();
     let truth = sim::SceneTruth::read(&scene_ref.dir);
+    // The true mesh (synthetic scenes), read once for the two figures that use it: the seen
+    // floor (below) and the held-out normal error.
+    let truth_path = scene_ref.dir.join("gt_mesh.ply");
+    let seen_floor_wanted = cfg.eval.enabled
+        && cfg.mesh.clean
+        && cfg.mesh.clean_min_visible_views > 0
+        && truth.floor.is_some()
+        && own_truth(&truth, &cfg.eval, &scene_ref);
+    let mut truth_mesh = (truth_path.is_file() && (seen_floor_wanted || !heldout.is_empty()))
+        .then(|| dtu_eval::ply::read_mesh(&truth_path));
     let mut chamfer_closed = None;
     let mut floor_seen = None;
     let (chamfer, eval_note) = if !cfg.eval.enabled {
@@ -1027,39 +1037,24 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 }
                 // The seen floor: the true mesh cut by rule 4 with these training cameras, where
                 // the run is scored against the scene's own truth and the folder has its mesh.
-                let truth_mesh = scene_ref.dir.join("gt_mesh.ply");
-                if cfg.mesh.clean
-                    && cfg.mesh.clean_min_visible_views > 0
-                    && truth.floor.is_some()
-                    && own_truth(&truth, &cfg.eval, &scene_ref)
-                    && truth_mesh.is_file()
-                {
-                    let rule = seen_floor::SeenRule {
-                        min_views: cfg.mesh.clean_min_visible_views,
-                        margin_mm: cfg.mesh.clean_visible_margin_mm,
-                        min_area_share: cfg.mesh.clean_min_area_share,
-                    };
-                    // A diagnostic: a true mesh it cannot use costs the figure, not the run.
-                    let seen = dtu_eval::ply::read_mesh(&truth_mesh)
-                        .map_err(|e| e.to_string())
-                        .and_then(|m| {
-                            seen_floor::seen_floor(
-                                &m,
-                                &scene.normalization,
-                                &cameras,
-                                &rule,
-                                &gt,
-                                &params,
-                                cfg.seed,
-                            )
-                            .map_err(|e| e.to_string())
-                        });
-                    match seen {
-                        Ok(f) => floor_seen = f,
-                        Err(e) => {
-                            eprintln!("warning: no seen floor ({}: {e})", truth_mesh.display())
-                        }
+                // A diagnostic: a true mesh it cannot use costs the figure, not the run.
+                let seen = match truth_mesh.as_ref().filter(|_| seen_floor_wanted) {
+                    None => Ok(None),
+                    Some(Err(e)) => Err(e.to_string()),
+                    Some(Ok(m)) => {
+                        let rule = seen_floor::SeenRule {
+                            min_views: cfg.mesh.clean_min_visible_views,
+                            margin_mm: cfg.mesh.clean_visible_margin_mm,
+                            min_area_share: cfg.mesh.clean_min_area_share,
+                        };
+                        let norm = &scene.normalization;
+                        seen_floor::seen_floor(m, norm, &cameras, &rule, &gt, &params, cfg.seed)
+                            .map_err(|e| format!("{}: {e}", truth_path.display()))
                     }
+                };
+                match seen {
+                    Ok(f) => floor_seen = f,
+                    Err(e) => eprintln!("warning: no seen floor ({e})"),
                 }
                 (Some(figures(&e)), None)
             }
@@ -1119,12 +1114,9 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let k = cfg.data.render_downscale as usize;
     let sched = model.config.inference_schedule(iters);
     // Ground-truth normals where the scene folder has its mesh (synthetic scenes).
-    let gt_mesh_path = scene_ref.dir.join("gt_mesh.ply");
-    let gt_normals = if heldout.is_empty() || !gt_mesh_path.is_file() {
-        None
-    } else {
-        let m = dtu_eval::ply::read_mesh(&gt_mesh_path)?;
-        normal_error::GtNormals::new(&m, &scene.normalization)
+    let gt_normals = match truth_mesh.take().filter(|_| !heldout.is_empty()) {
+        None => None,
+        Some(m) => normal_error::GtNormals::new(&m?, &scene.normalization),
     };
     let (mut nerr_sum, mut nerr_px) = (0.0f64, 0usize);
     for &v in &heldout {

@@ -19,7 +19,7 @@
 //! the cut then follows the visible region to about a millimetre, as it does on a
 //! reconstruction (marching-cubes cells of 0.5–1 mm at the presets' `mesh.fine_res`).
 
-use crate::mesh::clean::{grow_by_distance, split_unseen, surface_area, visibility_filter};
+use crate::mesh::clean::{seen_faces, split_unseen, surface_area};
 use crate::mesh::subdivide::subdivide_to;
 use crate::mesh::TriMesh;
 use crate::scene::dtu::Normalization;
@@ -82,9 +82,10 @@ pub fn seen_floor(
     for v in &mut fine_n.vertices {
         *v = norm.to_normalized(v.map(f64::from)).map(|x| x as f32);
     }
-    let seen_fine = grow_by_distance(
+    let seen_fine = seen_faces(
         &fine_n,
-        &visibility_filter(&fine_n, cameras, rule.min_views),
+        cameras,
+        rule.min_views,
         rule.margin_mm / norm.scale,
     );
     // Subdivision keeps the old vertices' indices and puts the 4^levels pieces of face `i`
