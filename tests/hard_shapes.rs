@@ -259,7 +259,8 @@ fn an_empty_mesh_is_reported_not_a_failure() {
 
 /// The seen floor is a diagnostic: a scene folder whose `gt_mesh.ply` cannot be read (here, not
 /// a PLY) still gets its run, its Chamfer figure and its floor, with a warning and no seen
-/// floor. (No held-out view, so the normal error, which needs the true mesh, is not asked.)
+/// floor; with a held-out view, its held-out PSNR too, with a second warning and no normal
+/// error (the one figure there that needs the true mesh).
 #[test]
 fn an_unreadable_true_mesh_costs_the_seen_floor_not_the_run() {
     let tmp = tempfile::tempdir().unwrap();
@@ -276,11 +277,14 @@ fn an_unreadable_true_mesh_costs_the_seen_floor_not_the_run() {
     }
     std::fs::write(scene.join("gt_mesh.ply"), "not a ply\n").unwrap();
     let cfg = common::tiny::write_config(tmp.path(), 24, "");
-    let (err, m) = reconstruct_tiny(&scene, &cfg, &tmp.path().join("run"), "data.holdout=0");
+    let (err, m) = reconstruct_tiny(&scene, &cfg, &tmp.path().join("run"), "data.holdout=1");
     assert!(err.contains("warning: no seen floor"), "{err}");
+    assert!(err.contains("warning: no held-out normal error"), "{err}");
     assert!(m["chamfer"]["chamfer_sum"].as_f64().unwrap().is_finite());
     assert!(m["floor_mm"].as_f64().unwrap() > 0.0, "{m:#}");
     assert!(m["floor_seen"].is_null(), "{m:#}");
+    assert!(m["psnr_heldout"].as_f64().unwrap().is_finite(), "{m:#}");
+    assert!(m["normal_error_deg"].is_null(), "{m:#}");
 }
 
 /// `meta.json` holds the true mesh's genus (largest component, Euler characteristic) and the
