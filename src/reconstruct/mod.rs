@@ -47,7 +47,7 @@ use crate::augment::{degrade_views, views_fraction, AugSampler, AugmentError};
 use crate::mesh::clean::{clean_mesh, cull_unseen_parts, CleanOptions};
 use crate::mesh::{extract_two_pass, to_world, McError, McOptions, TopologyReport, TwoPassOptions};
 use crate::render::model::{ModelError, NeusModel, RayBatch};
-use crate::scene::{GrayImage, LoadOptions, RgbImage, Scene, SceneError};
+use crate::scene::{dtu, GrayImage, LoadOptions, RgbImage, Scene, SceneError};
 use crate::sim::{self, SimError};
 use crate::train::checkpoint::{self, CheckpointError, TrainState};
 use crate::train::data::{camera_rays, DataError};
@@ -149,6 +149,12 @@ pub struct ResolvedScene {
 /// Resolves a scene name as ../shared/DESIGN.md §2 orders it: a folder; `<data_root>/<name>` or
 /// `<data_root>/dtu_<name>`; a built-in synthetic scene (generated once into the cache). An
 /// empty name is the embedded default scene.
+///
+/// A folder in the working directory that holds no scene (no `cameras_sphere.npz`) does not
+/// shadow a DTU scan or a built-in scene of the same bare name: `neus-aug reconstruct cup` run
+/// beside a folder `cup/` of the user's own files trains the built-in `cup`, with a warning
+/// that names the folder. A name written as a path (`./cup`, `runs/cup`, `/data/cup`) is
+/// always the folder.
 pub fn resolve_scene(
     spec: &str,
     data_root: &Path,
@@ -162,11 +168,20 @@ pub fn resolve_scene(
             .unwrap_or_else(|| name.to_string())
     };
     if as_path.is_dir() {
-        return Ok(ResolvedScene {
-            dir: as_path.into(),
-            name: short(as_path),
-            kind: SceneKind::Folder,
-        });
+        match shadowed_by_folder(as_path, name, data_root) {
+            None => {
+                return Ok(ResolvedScene {
+                    dir: as_path.into(),
+                    name: short(as_path),
+                    kind: SceneKind::Folder,
+                })
+            }
+            Some(what) => eprintln!(
+                "warning: the folder {name} holds no {}, so '{name}' is taken as {what}; \
+                 write ./{name} to load the folder",
+                dtu::CAMERA_FILE
+            ),
+        }
     }
     for candidate in [data_root.join(name), data_root.join(format!("dtu_{name}"))] {
         if candidate.is_dir() {
@@ -200,6 +215,33 @@ pub fn resolve_scene(
         }),
         Err(e) => Err(e.into()),
     }
+}
+
+/// What a bare scene `name` would resolve to past the folder `dir` it names (`dir` = `name`
+/// read from the working directory), when that
+/// folder holds no scene (no `cameras_sphere.npz`) and the name is not written as a path (no
+/// separator inside or at the end, not absolute):
+/// `Some` names the DTU scan or built-in scene that takes precedence (see [`resolve_scene`]),
+/// `None` keeps the folder (a scene, a path, or nothing else of that name: the loader then says
+/// what the folder lacks).
+fn shadowed_by_folder(dir: &Path, name: &str, data_root: &Path) -> Option<String> {
+    let typed = Path::new(name);
+    let written_as_path = typed.is_absolute()
+        || typed.components().count() > 1
+        || name.ends_with('/')
+        || name.ends_with(std::path::MAIN_SEPARATOR);
+    if written_as_path || dir.join(dtu::CAMERA_FILE).is_file() {
+        return None;
+    }
+    if let Some(c) = [data_root.join(name), data_root.join(format!("dtu_{name}"))]
+        .into_iter()
+        .find(|c| c.is_dir())
+    {
+        return Some(format!("the DTU scan {}", c.display()));
+    }
+    sim::builtin(name)
+        .ok()
+        .map(|_| format!("the built-in synthetic scene '{name}'"))
 }
 
 /// How to run (not part of the configuration: it does not change results).
@@ -1269,4 +1311,41 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     );
     drop(lock);
     Ok(metrics)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The folder-or-scene decision of [`resolve_scene`]: a folder without `cameras_sphere.npz`
+    /// gives way to a DTU scan or built-in scene of the same bare name, and only to them.
+    #[test]
+    fn a_folder_that_holds_no_scene_does_not_shadow_a_scene_of_its_name() {
+        let tmp = tempfile::tempdir().unwrap();
+        let root = tmp.path().join("dtu");
+        std::fs::create_dir_all(root.join("dtu_scan7")).unwrap();
+        // The user's own folders, one named like a DTU scan, one like a built-in scene.
+        let (scan, cup) = (tmp.path().join("scan7"), tmp.path().join("cup"));
+        for d in [&scan, &cup] {
+            std::fs::create_dir_all(d).unwrap();
+            std::fs::write(d.join("notes.txt"), "mine").unwrap();
+        }
+        // `dir` is where the folder is; `name` is the scene name as the user typed it.
+        let with_base = |name: &str| shadowed_by_folder(&tmp.path().join(name), name, &root);
+        assert!(with_base("scan7").unwrap().contains("dtu_scan7"));
+        assert!(with_base("cup")
+            .unwrap()
+            .contains("built-in synthetic scene 'cup'"));
+        // A name of nothing else keeps the folder (the loader names what it lacks).
+        std::fs::create_dir_all(tmp.path().join("mine")).unwrap();
+        assert_eq!(with_base("mine"), None);
+        // A folder that holds a scene wins, as DESIGN.md §2 orders.
+        std::fs::write(cup.join(dtu::CAMERA_FILE), b"").unwrap();
+        assert_eq!(with_base("cup"), None);
+        std::fs::remove_file(cup.join(dtu::CAMERA_FILE)).unwrap();
+        // A name written as a path is the folder, whatever else it names.
+        for written in ["./cup", "cup/", cup.to_str().unwrap()] {
+            assert_eq!(shadowed_by_folder(&cup, written, &root), None, "{written}");
+        }
+    }
 }
