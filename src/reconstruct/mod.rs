@@ -217,19 +217,20 @@ pub fn resolve_scene(
     }
 }
 
-/// What a bare scene `name` would resolve to past the folder `dir` it names (`dir` = `name`
-/// read from the working directory), when that
-/// folder holds no scene (no `cameras_sphere.npz`) and the name is not written as a path (no
-/// separator inside or at the end, not absolute):
-/// `Some` names the DTU scan or built-in scene that takes precedence (see [`resolve_scene`]),
-/// `None` keeps the folder (a scene, a path, or nothing else of that name: the loader then says
-/// what the folder lacks).
+/// What a bare scene `name` resolves to instead of the folder `dir` it names (`dir` is `name`
+/// read from the working directory), when that folder holds no scene (no
+/// `cameras_sphere.npz`) and the name is not written as a path. A path is absolute, has a
+/// separator inside or at the end, or is `.` or `..`. `Some` names the scan under the data
+/// root or the built-in scene that takes precedence (see [`resolve_scene`]); `None` keeps the
+/// folder: a scene, a path, or a name of nothing else (the loader then says what it lacks).
 fn shadowed_by_folder(dir: &Path, name: &str, data_root: &Path) -> Option<String> {
     let typed = Path::new(name);
-    let written_as_path = typed.is_absolute()
-        || typed.components().count() > 1
-        || name.ends_with('/')
-        || name.ends_with(std::path::MAIN_SEPARATOR);
+    let mut parts = typed.components();
+    let bare = matches!(
+        (parts.next(), parts.next()),
+        (Some(std::path::Component::Normal(_)), None)
+    );
+    let written_as_path = !bare || name.ends_with('/') || name.ends_with(std::path::MAIN_SEPARATOR);
     if written_as_path || dir.join(dtu::CAMERA_FILE).is_file() {
         return None;
     }
@@ -237,7 +238,7 @@ fn shadowed_by_folder(dir: &Path, name: &str, data_root: &Path) -> Option<String
         .into_iter()
         .find(|c| c.is_dir())
     {
-        return Some(format!("the DTU scan {}", c.display()));
+        return Some(format!("the scan {}", c.display()));
     }
     sim::builtin(name)
         .ok()
@@ -1347,5 +1348,8 @@ mod tests {
         for written in ["./cup", "cup/", cup.to_str().unwrap()] {
             assert_eq!(shadowed_by_folder(&cup, written, &root), None, "{written}");
         }
+        // `.` names the working directory, not the data root (which `root.join(".")` is).
+        assert_eq!(shadowed_by_folder(&cup, ".", &root), None);
+        assert_eq!(shadowed_by_folder(&cup, "..", &root), None);
     }
 }
