@@ -280,6 +280,8 @@ fn an_unreadable_true_mesh_costs_the_seen_floor_not_the_run() {
     let (err, m) = reconstruct_tiny(&scene, &cfg, &tmp.path().join("run"), "data.holdout=1");
     assert!(err.contains("warning: no seen floor"), "{err}");
     assert!(err.contains("warning: no held-out normal error"), "{err}");
+    // Each warning names the file once.
+    assert_eq!(err.matches("gt_mesh.ply").count(), 2, "{err}");
     assert!(m["chamfer"]["chamfer_sum"].as_f64().unwrap().is_finite());
     assert!(m["floor_mm"].as_f64().unwrap() > 0.0, "{m:#}");
     assert!(m["floor_seen"].is_null(), "{m:#}");

@@ -1083,7 +1083,7 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
                 // A diagnostic: a true mesh it cannot use costs the figure, not the run.
                 let seen = match truth_mesh.as_ref().filter(|_| seen_floor_wanted) {
                     None => Ok(None),
-                    Some(Err(e)) => Err(e.to_string()),
+                    Some(Err(e)) => Err(e.to_string().trim_end().to_string()),
                     Some(Ok(m)) => {
                         let rule = seen_floor::SeenRule {
                             min_views: cfg.mesh.clean_min_visible_views,
@@ -1162,10 +1162,11 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
     let gt_normals = match truth_mesh.take().filter(|_| !heldout.is_empty()) {
         None => None,
         Some(Ok(m)) => normal_error::GtNormals::new(&m, &scene.normalization),
+        // The PLY reader's error names the file already.
         Some(Err(e)) => {
             eprintln!(
-                "warning: no held-out normal error ({}: {e})",
-                truth_path.display()
+                "warning: no held-out normal error ({})",
+                e.to_string().trim_end()
             );
             None
         }

@@ -78,10 +78,14 @@ pub fn seen_floor(
     seed: u64,
 ) -> Result<Option<SeenFloor>, EvalError> {
     let (fine, levels) = subdivide_to(truth_world, EDGE_MM, MAX_FACES);
-    let mut fine_n = fine.clone();
-    for v in &mut fine_n.vertices {
-        *v = norm.to_normalized(v.map(f64::from)).map(|x| x as f32);
-    }
+    let fine_n = TriMesh {
+        vertices: fine
+            .vertices
+            .iter()
+            .map(|v| norm.to_normalized(v.map(f64::from)).map(|x| x as f32))
+            .collect(),
+        faces: fine.faces.clone(),
+    };
     let seen_fine = seen_faces(
         &fine_n,
         cameras,
@@ -91,8 +95,9 @@ pub fn seen_floor(
     // Subdivision keeps the old vertices' indices and puts the 4^levels pieces of face `i`
     // at `i·4^levels ..` (`subdivide_once`), so the two meshes share the vertex list.
     let block = 4usize.pow(levels);
+    let faces_judged = fine.faces.len();
     let mut mixed = TriMesh {
-        vertices: fine.vertices.clone(),
+        vertices: fine.vertices,
         faces: Vec::with_capacity(truth_world.faces.len()),
     };
     let mut flags = Vec::with_capacity(truth_world.faces.len());
@@ -126,6 +131,6 @@ pub fn seen_floor(
         mean_s2d: e.mean_s2d,
         min_views: rule.min_views,
         area_share_cut,
-        faces_judged: fine.faces.len(),
+        faces_judged,
     }))
 }

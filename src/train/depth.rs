@@ -589,8 +589,11 @@ impl View {
     }
 
     /// The distance along the unit ray through the centre of pixel `k` of the point at camera
-    /// depth `z` (NaN stays NaN): what [`DepthMaps::t`] holds.
+    /// depth `z`, NaN for a `z` that is not finite (no depth): what [`DepthMaps::t`] holds.
     fn ray_distance(&self, k: usize, z: f32) -> f32 {
+        if !z.is_finite() {
+            return f32::NAN;
+        }
         let d = self.dir((k % self.w) as f64 + 0.5, (k / self.w) as f64 + 0.5);
         (z as f64 * d.norm()) as f32
     }
