@@ -183,14 +183,12 @@ pub fn resolve_scene(
             ),
         }
     }
-    for candidate in [data_root.join(name), data_root.join(format!("dtu_{name}"))] {
-        if candidate.is_dir() {
-            return Ok(ResolvedScene {
-                name: short(&candidate),
-                dir: candidate,
-                kind: SceneKind::Dtu,
-            });
-        }
+    if let Some(dir) = dtu_scan_dir(data_root, name) {
+        return Ok(ResolvedScene {
+            name: short(&dir),
+            dir,
+            kind: SceneKind::Dtu,
+        });
     }
     match sim::builtin(name) {
         Ok(_) => {
@@ -234,15 +232,20 @@ fn shadowed_by_folder(dir: &Path, name: &str, data_root: &Path) -> Option<String
     if written_as_path || dir.join(dtu::CAMERA_FILE).is_file() {
         return None;
     }
-    if let Some(c) = [data_root.join(name), data_root.join(format!("dtu_{name}"))]
-        .into_iter()
-        .find(|c| c.is_dir())
-    {
+    if let Some(c) = dtu_scan_dir(data_root, name) {
         return Some(format!("the scan {}", c.display()));
     }
     sim::builtin(name)
         .ok()
         .map(|_| format!("the built-in synthetic scene '{name}'"))
+}
+
+/// The DTU scan folder `name` names under `data_root`: `<data_root>/<name>`, else
+/// `<data_root>/dtu_<name>` (DESIGN.md §2), when it is a folder.
+fn dtu_scan_dir(data_root: &Path, name: &str) -> Option<PathBuf> {
+    [data_root.join(name), data_root.join(format!("dtu_{name}"))]
+        .into_iter()
+        .find(|c| c.is_dir())
 }
 
 /// How to run (not part of the configuration: it does not change results).
