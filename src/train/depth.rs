@@ -922,12 +922,7 @@ fn sweep_view(cfg: &MvsConfig, views: &[View], i: usize, srcs: &[usize]) -> Vec<
                     .copied()
                     .filter(|c| c.is_finite()),
             );
-            let c = if cs.len() < cfg.top_k {
-                f32::NAN
-            } else {
-                cs.sort_by(|a, b| a.total_cmp(b));
-                cs[..cfg.top_k].iter().sum::<f32>() / cfg.top_k as f32
-            };
+            let c = top_k_mean(&mut cs, cfg.top_k);
             let b = &mut best[q];
             if c < b.0 {
                 *b = (c, pl, prev[q], f32::NAN);
@@ -952,6 +947,16 @@ fn sweep_view(cfg: &MvsConfig, views: &[View], i: usize, srcs: &[usize]) -> Vec<
         zmap[y * w + x] = (zn + (bp as f64 + 0.5 + off) * dz) as f32;
     }
     zmap
+}
+
+/// The mean of the `k` smallest of `costs` (sorted in place): a plane's cost over its sources
+/// (step 1). NaN when `costs` holds fewer than `k`.
+fn top_k_mean(costs: &mut [f32], k: usize) -> f32 {
+    if costs.len() < k {
+        return f32::NAN;
+    }
+    costs.sort_by(|a, b| a.total_cmp(b));
+    costs[..k].iter().sum::<f32>() / k as f32
 }
 
 /// Step 2 of the module doc: the camera-`z` maps keeping the depths at least

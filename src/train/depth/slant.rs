@@ -26,7 +26,7 @@
 //! its cost is below `max_cost`. The random numbers come from a generator seeded by the view's
 //! index, so a scene gives the same depth maps at every run.
 
-use super::{MvsConfig, View};
+use super::{top_k_mean, MvsConfig, View};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -155,11 +155,7 @@ impl Matcher<'_> {
             }
             costs.push((1.0 - sab / (va * vb).sqrt()) as f32);
         }
-        if costs.len() < self.cfg.top_k {
-            return f32::NAN;
-        }
-        costs.sort_by(|a, b| a.total_cmp(b));
-        costs[..self.cfg.top_k].iter().sum::<f32>() / self.cfg.top_k as f32
+        top_k_mean(costs, self.cfg.top_k)
     }
 }
 
@@ -340,11 +336,7 @@ mod tests {
             }
             per.push((1.0 - cov / (va * vb).sqrt()) as f32);
         }
-        if per.len() < m.cfg.top_k {
-            return f32::NAN;
-        }
-        per.sort_by(|a, b| a.total_cmp(b));
-        per[..m.cfg.top_k].iter().sum::<f32>() / m.cfg.top_k as f32
+        top_k_mean(&mut per, m.cfg.top_k)
     }
 
     #[test]
