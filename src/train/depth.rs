@@ -247,7 +247,7 @@ pub struct DepthConfig {
     /// at weight 10, and 0.5 / 1.0 took in the stereo's errors (1.079 at seed 0; 1.09 / 1.10)
     /// (`results/geometry/w10-suite-2026-11-28`, `results/geometry/one-view-2026-11-28`,
     /// `results/geometry/cup-grazing-2026-11-28`). With the slanted windows (`mvs.slant_iters`)
-    /// the depths are good enough to pull the surface to: cup 0.876 / 0.854 / SW2 mm at 0.5
+    /// the depths are good enough to pull the surface to: cup 0.876 / 0.854 / 0.891 mm at 0.5
     /// against 0.886 / 0.950 / 0.933 at 0.2 (seeds 0 / 1 / 2;
     /// `results/geometry/slanted-stereo-2026-11-29`).
     pub surface_weight: f32,
