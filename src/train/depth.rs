@@ -677,6 +677,8 @@ pub fn depth_maps(
         .into_par_iter()
         .map(|i| {
             let z0 = sweep_view(cfg, &views, i, &sources[i]);
+            // The sweep's plane step where the sphere lies wholly in front of the camera; it
+            // only sizes the refinement's depth perturbations.
             let dz = 2.0 * cfg.depth_radius as f64 / cfg.planes as f64;
             slant::refine(cfg, &views, i, &sources[i], &z0, dz)
         })

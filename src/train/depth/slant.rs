@@ -159,7 +159,9 @@ impl Matcher<'_> {
     }
 }
 
-/// A unit vector within `angle` radians (about) of `n`, uniform in a cube's directions.
+/// `n` tilted by a random offset of up to about `angle` radians (`n + sin(angle)·u`, `u`
+/// uniform in the cube `[−1, 1]³`, normalised). A draw that cancels `n` gives a non-finite
+/// vector, which [`Matcher::depth`] refuses.
 fn tilt(rng: &mut Pcg64Mcg, n: &Vector3<f64>, angle: f64) -> Vector3<f64> {
     let s = angle.sin();
     let u = Vector3::new(
