@@ -635,6 +635,16 @@ impl View {
         self.c + self.dir((k % self.w) as f64 + 0.5, (k / self.w) as f64 + 0.5) * z
     }
 
+    /// The warp into view `vj`: `(A, b)` with `A = K_j R_j R_iᵀ K_i⁻¹` and
+    /// `b = K_j R_j (c_i − c_j)`, so that pixel coordinates `p = (u, v, 1)` of this view at
+    /// camera depth `z` land at `z·A·p + b` (homogeneous) in `vj`.
+    fn warp_to(&self, vj: &View) -> (Matrix3<f64>, Vector3<f64>) {
+        (
+            vj.k * vj.r * self.r.transpose() * self.kinv,
+            vj.k * vj.r * (self.c - vj.c),
+        )
+    }
+
     /// `(u, v, z)`: pixel coordinates and camera depth of `x`.
     fn project(&self, x: &Vector3<f64>) -> (f64, f64, f64) {
         let h = self.k * (self.r * (x - self.c));
@@ -850,9 +860,7 @@ fn sweep_view(cfg: &MvsConfig, views: &[View], i: usize, srcs: &[usize]) -> Vec<
     let setups: Vec<(Vec<Vector3<f64>>, Vector3<f64>)> = srcs
         .iter()
         .map(|&j| {
-            let vj = &views[j];
-            let am = vj.k * vj.r * vi.r.transpose() * vi.kinv;
-            let b = vj.k * vj.r * (vi.c - vj.c);
+            let (am, b) = vi.warp_to(&views[j]);
             let ap = (0..bw * bh)
                 .map(|k| {
                     let (x, y) = ((bx0 + k % bw) as f64 + 0.5, (by0 + k / bw) as f64 + 0.5);

@@ -55,8 +55,7 @@ struct Matcher<'a> {
     vi: &'a View,
     views: &'a [View],
     srcs: &'a [usize],
-    /// Per source: `A = K_j R_j R_iᵀ K_i⁻¹` and `b = K_j R_j (c_i − c_j)`, so that pixel `p` of
-    /// view `i` at camera depth `z` lands at `z·A·p + b` (homogeneous) in source `j`.
+    /// Per source: [`View::warp_to`] from view `i`.
     warps: Vec<(Matrix3<f64>, Vector3<f64>)>,
     /// `K_i⁻¹`: the camera-frame ray (`z = 1`) of pixel coordinates `(u, v, 1)`.
     kinv: Matrix3<f64>,
@@ -89,29 +88,40 @@ impl Matcher<'_> {
         (nr > cos_max * r.norm() && pl.d > 0.0).then(|| pl.d / nr)
     }
 
-    /// The cost of `pl` at pixel `(x, y)` (the window inside the image): `1 − NCC` averaged
-    /// over the `top_k` best sources, NaN when fewer than `top_k` give one.
-    fn cost(&self, pl: &Plane, x: usize, y: usize, costs: &mut Vec<f32>) -> f32 {
-        let a = &self.vi.grey;
+    /// The reference window of pixel `(x, y)` (the window inside the image): `(mean, Σ(a −
+    /// mean)²)` of its grey values, `None` when it holds a non-finite value or too little
+    /// texture (`min_std`). It does not depend on the plane, so [`refine`] takes it once.
+    fn reference(&self, x: usize, y: usize) -> Option<(f64, f64)> {
         let (w, hf) = (self.vi.w, self.cfg.window_half as isize);
         let n = self.nwin as f64;
-        // The reference window: its values centred on their mean.
         let (mut sa, mut saa) = (0.0f64, 0.0f64);
         for dy in -hf..=hf {
             for dx in -hf..=hf {
                 let g = self.vi.grey[(y as isize + dy) as usize * w + (x as isize + dx) as usize];
                 if !g.is_finite() {
-                    return f32::NAN;
+                    return None;
                 }
                 sa += g as f64;
                 saa += (g as f64) * (g as f64);
             }
         }
         let va = saa - sa * sa / n;
-        if va < self.min_var || va <= 0.0 {
-            return f32::NAN;
-        }
-        let mean_a = sa / n;
+        (va >= self.min_var && va > 0.0).then_some((sa / n, va))
+    }
+
+    /// The cost of `pl` at pixel `(x, y)`, whose window is `reference` ([`Self::reference`]):
+    /// `1 − NCC` averaged over the `top_k` best sources, NaN when fewer than `top_k` give one.
+    fn cost(
+        &self,
+        pl: &Plane,
+        x: usize,
+        y: usize,
+        (mean_a, va): (f64, f64),
+        costs: &mut Vec<f32>,
+    ) -> f32 {
+        let a = &self.vi.grey;
+        let (w, hf) = (self.vi.w, self.cfg.window_half as isize);
+        let n = self.nwin as f64;
         costs.clear();
         let (u0, v0) = (x as f64 + 0.5, y as f64 + 0.5);
         let r0 = self.ray(u0, v0);
@@ -188,16 +198,7 @@ pub(super) fn refine(
     if cfg.slant_iters == 0 || srcs.len() < cfg.top_k || w <= 2 * hf || h <= 2 * hf {
         return z0.to_vec();
     }
-    let warps = srcs
-        .iter()
-        .map(|&j| {
-            let vj = &views[j];
-            (
-                vj.k * vj.r * vi.r.transpose() * vi.kinv,
-                vj.k * vj.r * (vi.c - vj.c),
-            )
-        })
-        .collect();
+    let warps = srcs.iter().map(|&j| vi.warp_to(&views[j])).collect();
     let nwin = (2 * hf + 1) * (2 * hf + 1);
     let m = Matcher {
         cfg,
@@ -212,6 +213,12 @@ pub(super) fn refine(
     // The pixels refined: in the mask, with the window inside the image.
     let inside =
         |x: usize, y: usize| x >= hf && y >= hf && x + hf < w && y + hf < h && vi.mask[y * w + x];
+    let refw: Vec<Option<(f64, f64)>> = (0..w * h)
+        .map(|k| {
+            let (x, y) = (k % w, k / w);
+            inside(x, y).then(|| m.reference(x, y)).flatten()
+        })
+        .collect();
     let mut plane: Vec<Option<Plane>> = vec![None; w * h];
     let mut cost = vec![f32::INFINITY; w * h];
     let mut scratch = Vec::with_capacity(srcs.len());
@@ -224,7 +231,7 @@ pub(super) fn refine(
                 continue;
             }
             let pl = m.plane_at(x, y, z, front);
-            let c = m.cost(&pl, x, y, &mut scratch);
+            let c = refw[k].map_or(f32::NAN, |r| m.cost(&pl, x, y, r, &mut scratch));
             plane[k] = Some(pl);
             cost[k] = if c.is_finite() { c } else { f32::INFINITY };
         }
@@ -240,10 +247,13 @@ pub(super) fn refine(
                 continue;
             }
             let mut try_plane = |pl: Plane, plane: &mut [Option<Plane>], cost: &mut [f32]| {
+                let Some(r) = refw[k] else {
+                    return;
+                };
                 if m.depth(&pl, x, y).is_none() {
                     return;
                 }
-                let c = m.cost(&pl, x, y, &mut scratch);
+                let c = m.cost(&pl, x, y, r, &mut scratch);
                 if c < cost[k] {
                     cost[k] = c;
                     plane[k] = Some(pl);
@@ -353,14 +363,7 @@ mod tests {
             vi,
             views: &views,
             srcs,
-            warps: srcs
-                .iter()
-                .map(|&j| {
-                    let vj = &views[j];
-                    let am = vj.k * vj.r * vi.r.transpose() * vi.kinv;
-                    (am, vj.k * vj.r * (vi.c - vj.c))
-                })
-                .collect(),
+            warps: srcs.iter().map(|&j| vi.warp_to(&views[j])).collect(),
             kinv: vi.kinv,
             nwin: 25,
             min_var: (cfg.min_std as f64).powi(2) * 25.0,
@@ -376,7 +379,10 @@ mod tests {
             if m.depth(&pl, x, y).is_none() {
                 continue;
             }
-            let (fast, slow) = (m.cost(&pl, x, y, &mut scratch), cost_by_rays(&m, &pl, x, y));
+            let fast = m
+                .reference(x, y)
+                .map_or(f32::NAN, |r| m.cost(&pl, x, y, r, &mut scratch));
+            let slow = cost_by_rays(&m, &pl, x, y);
             assert_eq!(
                 fast.is_finite(),
                 slow.is_finite(),
