@@ -34,11 +34,6 @@
 //! `NEUS_AUG_BENCH_SECS` (default 6) sets the seconds of the main measurement;
 //! `NEUS_AUG_BENCH_QUICK=1` runs only the FMA peak and the default network's iteration;
 //! `NEUS_AUG_BENCH_MLP_ONLY=1` stops after the MLP products and the SDF layer's parts (0–2);
-//! `NEUS_AUG_BENCH_COLOR_GRID=1` runs only the `fast` network's iteration with and without the
-//! colour grid (`field.color_grid`), twice, and prints their ratio (with `QUICK`: after 0–1);
-//! `NEUS_AUG_BENCH_MULTIVIEW=1` runs only the `fast` network's iteration and, on the same
-//! parameters, the multi-view patch consistency's step (`train.multiview`, 256 rays, 8 sources,
-//! 400 × 300 views of a ring rig), twice, and prints the prior's time as a share of the iteration;
 //! `NEUS_AUG_CHUNK` overrides `chunk_samples`, `NEUS_AUG_BENCH_FD_EVERY` the main measurement's
 //! `render.fd_central_every`, `NEUS_AUG_BENCH_FD_SPAN` its and the one-sided pairs'
 //! `render.fd_one_sided_span` (default: the `fast` preset's, 2: taps two cells out); both apply to
@@ -1072,127 +1067,6 @@ fn fd_sides(peak: f64, secs: f64) {
     }
 }
 
-/// The colour network's own hash grid (`field.color_grid`, opt-in; issue 13) against none, on the
-/// `fast` preset's network, tap layout and ray cap: two rounds of the pair back to back, each
-/// iteration including AdamW over the larger parameter buffer.
-fn color_grid_cost(peak: f64, secs: f64) {
-    let mut ratios = Vec::new();
-    for round in 0..2 {
-        let mut rates = [(0.0, 0.0); 2];
-        for (j, on) in [false, true].into_iter().enumerate() {
-            let mut cfg = neus_aug::reconstruct::Preset::Fast.config().model;
-            cfg.field.color_grid.enabled = on;
-            let (m, mut p, o, _) = setup(cfg);
-            let st = train_iterations(&m, &mut p, &o, secs);
-            let label = format!(
-                "fast network, round {round}, colour grid {}",
-                if on {
-                    "on (12 levels, T = 2^15)"
-                } else {
-                    "off"
-                }
-            );
-            let step = report(&label, &m, &st, peak, false);
-            rates[j] = (step, st.samples as f64 / st.wall);
-        }
-        println!(
-            "  colour grid against none, round {round}: train_step {:.2}x, whole iteration {:.2}x (samples/s; below 1 = slower)",
-            rates[1].0 / rates[0].0,
-            rates[1].1 / rates[0].1
-        );
-        ratios.push(rates[1].1 / rates[0].1);
-    }
-    println!("  whole-iteration ratios: {ratios:.2?}");
-}
-
-/// The multi-view prior's step (`train::multiview`, default settings but `weight = 1`) against
-/// the `fast` network's whole iteration on the same parameters: 12 cameras on a ring 2.5 units
-/// out, 30° up, looking at the origin, 400 × 300 smooth random textures; the batch is 4096 rays
-/// through random pixels of the central 140 × 140 (where the sphere-initialised field's surface
-/// is), of which the prior takes its 256.
-fn multiview_cost(peak: f64, secs: f64) {
-    use nalgebra::{Matrix3, Vector3};
-    use neus_aug::scene::{Camera, RgbImage};
-    use neus_aug::train::multiview::{MultiViewConfig, MultiViewPrior};
-    let cfg = neus_aug::reconstruct::Preset::Fast.config().model;
-    let (m, mut p, o, _) = setup(cfg);
-    let (w, h) = (400u32, 300u32);
-    let mut rng = Pcg64Mcg::seed_from_u64(21);
-    let k = Matrix3::new(400.0, 0.0, 200.0, 0.0, 400.0, 150.0, 0.0, 0.0, 1.0);
-    let cams: Vec<Camera> = (0..12)
-        .map(|i| {
-            let a = i as f64 * std::f64::consts::TAU / 12.0;
-            let c = 2.5 * Vector3::new(0.87 * a.cos(), 0.87 * a.sin(), 0.5);
-            neus_aug::sim::rig::look_at(c, Vector3::zeros(), Vector3::z(), k, w, h)
-        })
-        .collect();
-    let imgs: Vec<RgbImage> = (0..12)
-        .map(|_| {
-            let f: [f64; 4] = [0; 4].map(|_| rng.random_range(0.05..0.3));
-            RgbImage::from_fn(w as usize, h as usize, |x, y| {
-                let g = 0.5
-                    + 0.2 * (f[0] * x as f64 + f[1] * y as f64).sin()
-                    + 0.2 * (f[2] * x as f64 - f[3] * y as f64).cos();
-                [g as f32; 3]
-            })
-        })
-        .collect();
-    let prior = MultiViewPrior::new(
-        MultiViewConfig {
-            weight: 1.0,
-            ..Default::default()
-        },
-        &cams,
-        &imgs,
-    );
-    let mut batch = neus_aug::train::Batch::default();
-    for _ in 0..4096 {
-        batch.views.push(rng.random_range(0..12));
-        batch
-            .pixels
-            .push([rng.random_range(130..270), rng.random_range(80..220)]);
-        batch.origins.push([0.0; 3]);
-    }
-    let active = m.config.schedule(1000).active_levels;
-    let mut grads = vec![0f32; p.len()];
-    let mut shares = Vec::new();
-    for round in 0..2 {
-        let st = train_iterations(&m, &mut p, &o, secs);
-        let per_iter = (st.step + st.adam) / st.steps as f64;
-        report(
-            &format!("fast network, round {round}"),
-            &m,
-            &st,
-            peak,
-            false,
-        );
-        let c = Instant::now();
-        let mut n = 0;
-        let mut last = None;
-        while c.elapsed().as_secs_f64() < secs.min(3.0) || n < 3 {
-            last = prior.add_grad(&m, &p, 1000, 2000, active, &batch, &mut grads);
-            n += 1;
-        }
-        let per = c.elapsed().as_secs_f64() / n as f64;
-        let s = last.expect("on");
-        println!(
-            "  multi-view prior, round {round}: {:.1} ms per step ({} rays, {} hits, {} used; search {:.1} / patches {:.1} / gradient {:.1} ms at the last), {:.1} ms per iteration: {:.2}x of the iteration",
-            per * 1e3,
-            s.rays,
-            s.hits,
-            s.used,
-            s.seconds[0] * 1e3,
-            s.seconds[1] * 1e3,
-            s.seconds[2] * 1e3,
-            per_iter * 1e3,
-            per / per_iter
-        );
-        shares.push(per / per_iter);
-    }
-    black_box(&grads);
-    println!("  prior / iteration: {shares:.3?}");
-}
-
 fn main() {
     let secs: f64 = std::env::var("NEUS_AUG_BENCH_SECS")
         .ok()
@@ -1254,14 +1128,6 @@ fn main() {
         sdf_layer_parts();
     }
     if std::env::var("NEUS_AUG_BENCH_MLP_ONLY").is_ok() {
-        return;
-    }
-    if std::env::var("NEUS_AUG_BENCH_COLOR_GRID").is_ok() {
-        color_grid_cost(peak, secs);
-        return;
-    }
-    if std::env::var("NEUS_AUG_BENCH_MULTIVIEW").is_ok() {
-        multiview_cost(peak, secs);
         return;
     }
 

@@ -13,6 +13,7 @@ pub mod augment;
 pub mod field;
 pub mod import;
 pub mod mesh;
+pub mod mvs;
 pub mod reconstruct;
 pub mod render;
 pub mod scene;

@@ -10,9 +10,33 @@ const FNV64_PRIME: u64 = 0x0000_0100_0000_01b3;
 /// in `metrics.json` and checkpoints (`RunConfig::training_hash`), the scene cache folder names
 /// (`sim::cache_key`), the study plan's configuration hashes and the bootstrap seeds.
 pub fn fnv1a64(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(FNV64_OFFSET, |h, &b| {
-        (h ^ b as u64).wrapping_mul(FNV64_PRIME)
-    })
+    let mut h = Fnv1a64::default();
+    h.write(bytes);
+    h.0
+}
+
+/// [`fnv1a64`] fed in pieces: the hash of the pieces' concatenation, without holding it.
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv1a64(pub u64);
+
+impl Default for Fnv1a64 {
+    fn default() -> Self {
+        Self(FNV64_OFFSET)
+    }
+}
+
+impl Fnv1a64 {
+    /// Feeds `bytes`.
+    pub fn write(&mut self, bytes: &[u8]) {
+        self.0 = bytes
+            .iter()
+            .fold(self.0, |h, &b| (h ^ b as u64).wrapping_mul(FNV64_PRIME));
+    }
+
+    /// The hash so far as 16 lower-case hex digits.
+    pub fn hex(&self) -> String {
+        format!("{:016x}", self.0)
+    }
 }
 
 /// [`fnv1a64`] as 16 lower-case hex digits, zero padded (the form written to files).
@@ -34,7 +58,7 @@ mod tests {
 
     #[test]
     fn hashes_stay_those_of_the_code_before_the_merge() {
-        // Computed before issue 12 with the two implementations then in use
+        // Computed with the two implementations the project first had
         // (`reconstruct::config` training_hash and `scene::sim::fnv1a64`); both agreed. Stored
         // training hashes (checkpoints, metrics.json) and cache folders rely on these bits.
         let toml = "scene = \"blob\"\nseed = 0\n\n[train]\niterations = 2000\n";
@@ -42,5 +66,10 @@ mod tests {
         assert_eq!(fnv1a64(b"table2/blob/sia"), 0x0d97_016e_8508_ed67);
         // Zero padding: a leading zero digit is kept.
         assert_eq!(fnv1a64_hex(b"table2/blob/sia"), "0d97016e8508ed67");
+        // In pieces: the hash of the concatenation.
+        let mut h = Fnv1a64::default();
+        h.write(b"table2/");
+        h.write(b"blob/sia");
+        assert_eq!(h.hex(), "0d97016e8508ed67");
     }
 }

@@ -142,44 +142,6 @@ fn background_gradient_matches_central_differences() {
     assert_eq!(out.n_valid_rays, out.n_rays, "{out:?}");
 }
 
-/// The colour network's own hash grid (`field.color_grid`, issue 13): its table joins the check
-/// as the group `color_grid`, fed at every sample centre, with the xyz prefix on (it has no
-/// parameters but widens the colour input). Progressive geometry levels at the same time: the
-/// colour grid keeps all of its levels.
-#[test]
-fn color_grid_gradient_matches_central_differences() {
-    use neus_aug::field::config::{ColorGridConfig, HashGridConfig, ProgressiveConfig};
-    let mut cfg = tiny_config();
-    cfg.field.color_grid = ColorGridConfig {
-        enabled: true,
-        grid: HashGridConfig {
-            n_levels: 3,
-            n_features_per_level: 2,
-            log2_hashmap_size: 6,
-            base_resolution: 3.0,
-            per_level_scale: 2.0,
-            include_xyz: true,
-            ..Default::default()
-        },
-    };
-    cfg.field.hash_grid.progressive = Some(ProgressiveConfig {
-        start_level: 2,
-        start_step: 0,
-        update_steps: 1000,
-    });
-    let model = NeusModel::new(cfg).unwrap();
-    let g = model
-        .layout
-        .group("color_grid")
-        .expect("the colour grid's group");
-    assert_eq!(g.shape, [model.color_grid.as_ref().unwrap().n_entries, 2]);
-    assert_eq!(
-        model.color_mlp.dims[0],
-        tiny_config().field.color_input_dim() + 3 + 3 * 2
-    );
-    check_full_gradient(model.config.clone());
-}
-
 /// Coarse-to-fine levels (2 of the tiny grid's 6 active at the checked step): the inactive
 /// levels contribute nothing, the finite-difference epsilon follows the finest active level, and
 /// the gradient (curvature term included) still matches central differences.
@@ -469,181 +431,12 @@ fn sdf_fit_gradient_matches_central_differences() {
     assert!(more > fewer, "{more} vs {fewer}");
 }
 
-/// The unseen-space prior's hinge (issue 13): `(w/n) Σ max(0, f(x))` of the SDF channel, its
-/// gradient against central differences in f64 with 2 of 4 levels active. Points whose `|f|` is
-/// within 1e-3 of the kink are dropped so no difference straddles it; both signs remain, and
-/// points with `f < 0` contribute nothing (the gradient of the inside points alone is zero).
-#[test]
-fn sdf_hinge_gradient_matches_central_differences() {
-    let model = NeusModel::new(tiny_config()).unwrap();
-    let s = seed();
-    let mut p = perturbed_params_f64(&model, s);
-    let mut rng = Pcg64Mcg::seed_from_u64(s + 11);
-    let active = 2;
-    let value = |p: &[f64], x: [f64; 3]| {
-        let mut g = vec![0.0; p.len()];
-        let abs = model.sdf_fit_loss_grad(p, &[x], &[0.0], active, &mut g);
-        let (pos, _) = model.sdf_hinge_loss_grad(p, &[x], 1.0, active, &mut g);
-        if pos > 0.0 {
-            abs
-        } else {
-            -abs
-        }
-    };
-    let mut pts: Vec<[f64; 3]> = Vec::new();
-    let (mut n_in, mut n_out) = (0, 0);
-    while pts.len() < 40 {
-        let x = [0; 3].map(|_| rng.random_range(-0.95..0.95));
-        let f = value(&p, x);
-        if f.abs() > 1e-3 {
-            if f > 0.0 {
-                n_out += 1;
-            } else {
-                n_in += 1;
-            }
-            pts.push(x);
-        }
-    }
-    assert!(n_in > 0 && n_out > 0, "{n_in} inside, {n_out} outside");
-    let w = 0.7;
-    let mut grads = vec![0.0; p.len()];
-    let (l, positive) = model.sdf_hinge_loss_grad(&p, &pts, w, active, &mut grads);
-    assert_eq!(positive, n_out);
-    let expect: f64 = pts.iter().map(|&x| value(&p, x).max(0.0)).sum::<f64>() * w / 40.0;
-    assert!(
-        (l - expect).abs() < 1e-12 * expect.max(1.0),
-        "{l} vs {expect}"
-    );
-    let loss = |p: &[f64]| {
-        let mut g = vec![0.0; p.len()];
-        model.sdf_hinge_loss_grad(p, &pts, w, active, &mut g).0
-    };
-    check_sdf_group_gradients(&model, &mut p, &grads, loss, 1e-9, &mut rng);
-    // The inside points alone: no loss, no gradient.
-    let inside: Vec<[f64; 3]> = pts
-        .iter()
-        .copied()
-        .filter(|&x| value(&p, x) < 0.0)
-        .collect();
-    let mut g = vec![0.0; p.len()];
-    let (l_in, pos_in) = model.sdf_hinge_loss_grad(&p, &inside, w, active, &mut g);
-    assert_eq!((l_in, pos_in), (0.0, 0));
-    assert!(g.iter().all(|&v| v == 0.0));
-}
-
-/// The multi-view patch consistency (issue 13, `train::multiview`): its loss moves the surface
-/// points `x*` found along the rays by implicit differentiation, `∂t*/∂θ = −(∂f/∂θ)/(∇f·d)`.
-/// Against central differences of the loss in f64, with the plane normals held at their values
-/// (the gradient treats them as fixed), the crossings refined to convergence and the normal's
-/// difference step small; every source averaged (`top_k = sources`), so no selection flips.
-/// Only the SDF network and the hash grid receive a gradient.
-#[test]
-fn multiview_gradient_matches_central_differences() {
-    use nalgebra::{Matrix3, Vector3};
-    use neus_aug::scene::{Camera, RgbImage};
-    use neus_aug::sim::rig::look_at;
-    use neus_aug::train::multiview::{MultiViewConfig, MultiViewPrior};
-    let model = NeusModel::new(field_common::tiny_config()).unwrap();
-    let s = seed();
-    let mut p = perturbed_params_f64(&model, s);
-    let mut rng = Pcg64Mcg::seed_from_u64(s + 13);
-    let (w, h) = (48u32, 40u32);
-    let k = Matrix3::new(40.0, 0.0, 24.0, 0.0, 40.0, 20.0, 0.0, 0.0, 1.0);
-    let cams: Vec<Camera> = (0..4)
-        .map(|i| {
-            let a = 0.5 * i as f64 - 0.7;
-            let c = Vector3::new(2.2 * a.sin(), -2.2 * a.cos(), 0.8);
-            look_at(c, Vector3::zeros(), Vector3::z(), k, w, h)
-        })
-        .collect();
-    // Smooth textures in pixel space, different in each view (the cost is then far from 0).
-    let imgs: Vec<RgbImage> = (0..4)
-        .map(|v| {
-            let mut img = RgbImage::new(w as usize, h as usize);
-            for y in 0..h as usize {
-                for x in 0..w as usize {
-                    let (fx, fy) = (x as f64, y as f64);
-                    let g = 0.5
-                        + 0.25 * (0.45 * fx + 0.3 * fy + v as f64).sin()
-                        + 0.15 * (0.2 * fx - 0.5 * fy).cos();
-                    img.set(x, y, [g as f32; 3]);
-                }
-            }
-            img
-        })
-        .collect();
-    let cfg = MultiViewConfig {
-        weight: 0.8,
-        sources: 3,
-        top_k: 3,
-        refine: 60,
-        march_samples: 64,
-        ..Default::default()
-    };
-    let weight = cfg.weight as f64;
-    let prior = &MultiViewPrior::new(cfg, &cams, &imgs);
-    let rays: Vec<(usize, [u32; 2])> = (0..24)
-        .map(|_| {
-            (
-                rng.random_range(0..4),
-                [rng.random_range(18..30), rng.random_range(14..26)],
-            )
-        })
-        .collect();
-    let active = 3;
-    let eps = 1e-7;
-    let m = &model;
-    fn eval<'a>(
-        m: &'a NeusModel,
-        p: &'a [f64],
-        active: usize,
-    ) -> impl Fn(&[[f64; 3]]) -> Vec<f64> + 'a {
-        move |pts: &[[f64; 3]]| {
-            let mut g = vec![0.0; p.len()];
-            m.sdf_weighted_grad(p, pts, &vec![0.0; pts.len()], active, &mut g)
-        }
-    }
-    let mut grads = vec![0.0; p.len()];
-    let (out, normals) = prior.loss_grad(
-        weight,
-        m,
-        &p,
-        &eval(m, &p, active),
-        active,
-        eps,
-        &rays,
-        None,
-        &mut grads,
-    );
-    let normals = &normals;
-    assert!(out.used >= 8, "{out:?}");
-    assert!(out.loss > 0.05 && out.loss.is_finite(), "{out:?}");
-    let loss = |q: &[f64]| {
-        let mut g = vec![0.0; q.len()];
-        let (o, _) = prior.loss_grad(
-            weight,
-            m,
-            q,
-            &eval(m, q, active),
-            active,
-            eps,
-            &rays,
-            Some(normals),
-            &mut g,
-        );
-        assert_eq!(o.used, out.used, "a ray changed status");
-        o.loss
-    };
-    check_sdf_group_gradients(&model, &mut p, &grads, loss, 1e-8, &mut rng);
-}
-
-/// The depth-sweep carving's loss (issue 13, `train::multiview::carve_loss_grad`) on a fixed
-/// plan: a hinge `max(0, τ − f)` on each carved span's points (some above τ, so no term) and
+/// The depth prior's loss (`train::depth::carve_loss_grad`) on a fixed plan: a hinge `max(0, τ − f)` on each carved span's points (some above τ, so no term) and
 /// `|f|` at the surface point. Against central differences in f64, and against the loss
 /// written out; points are held a margin away from the hinge's and `|f|`'s kinks.
 #[test]
 fn carve_gradient_matches_central_differences() {
-    use neus_aug::train::multiview::{carve_loss_grad, CarveConfig, CarvedRay};
+    use neus_aug::train::depth::{carve_loss_grad, CarvedRay};
     let model = NeusModel::new(field_common::tiny_config()).unwrap();
     let s = seed();
     let mut p = perturbed_params_f64(&model, s);
@@ -670,11 +463,7 @@ fn carve_gradient_matches_central_differences() {
             surface: pick(&p).0,
         })
         .collect();
-    let cv = CarveConfig {
-        weight: 0.7,
-        surface_weight: 0.5,
-        ..Default::default()
-    };
+    let (weight, surface_weight) = (0.7, 0.5);
     let eval = |q: &[f64]| {
         let q = q.to_vec();
         let m = &model;
@@ -684,7 +473,16 @@ fn carve_gradient_matches_central_differences() {
         }
     };
     let mut grads = vec![0.0; p.len()];
-    let l = carve_loss_grad(&cv, &model, &p, &eval(&p), &plan, active, &mut grads);
+    let l = carve_loss_grad(
+        weight,
+        surface_weight,
+        &model,
+        &p,
+        &eval(&p),
+        &plan,
+        active,
+        &mut grads,
+    );
     let by_hand: f64 = plan
         .iter()
         .map(|c| {
@@ -703,13 +501,31 @@ fn carve_gradient_matches_central_differences() {
     );
     let loss = |q: &[f64]| {
         let mut g = vec![0.0; q.len()];
-        carve_loss_grad(&cv, &model, q, &eval(q), &plan, active, &mut g)
+        carve_loss_grad(
+            weight,
+            surface_weight,
+            &model,
+            q,
+            &eval(q),
+            &plan,
+            active,
+            &mut g,
+        )
     };
     check_sdf_group_gradients(&model, &mut p, &grads, loss, 1e-9, &mut rng);
     // An empty plan: no loss, no gradient.
     let mut g = vec![0.0; p.len()];
     assert_eq!(
-        carve_loss_grad(&cv, &model, &p, &eval(&p), &[], active, &mut g),
+        carve_loss_grad(
+            weight,
+            surface_weight,
+            &model,
+            &p,
+            &eval(&p),
+            &[],
+            active,
+            &mut g
+        ),
         0.0
     );
     assert!(g.iter().all(|&v| v == 0.0));

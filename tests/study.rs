@@ -170,7 +170,10 @@ fn a_killed_grid_resumes_runs_each_run_once_and_collects_bit_for_bit() {
             r.id,
             done.iter().filter(|d| **d == r.id).count()
         );
-        assert_eq!(run_state(&dir, r, None).unwrap(), RunState::Done);
+        assert_eq!(
+            run_state(&dir, r, None, &Default::default()).unwrap(),
+            RunState::Done
+        );
     }
     for (p, (bytes, mtime)) in &finished {
         let m = p.join("metrics.json");
@@ -307,7 +310,7 @@ fn emitted_job_lines_make_the_planned_runs_and_mix_with_local_runs() {
     let plan = StudyPlan::load(&dir).unwrap();
     let first = &plan.runs[0];
     assert_eq!(
-        run_state(&dir, first, None).unwrap(),
+        run_state(&dir, first, None, &Default::default()).unwrap(),
         RunState::Done,
         "the job line made the planned configuration"
     );
@@ -803,4 +806,79 @@ fn pareto_mesh_variants_reuse_the_centre_training() {
     );
     assert!(dir.join("report/pareto.png").is_file());
     assert_eq!(plan.runs.len(), 12);
+}
+
+/// `study collect` from the committed records alone (`study.toml` + `records.jsonl`, no run
+/// folders) writes the reports bit for bit as from the run folders; a record of another
+/// configuration is refused; and a study with a record counts that run finished.
+#[test]
+fn collect_from_records_alone_rebuilds_every_report() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("t2");
+    let mut o = StudyOptions::new(Grid::Table2);
+    o.scenes = vec!["blob".into(), "torus".into()];
+    o.seeds = 2;
+    let (plan, cfgs) = make_plan(&o, None, &dir).unwrap();
+    fabricate(
+        &dir,
+        &plan,
+        &cfgs,
+        |r| 1.0 + r.seed as f64 / 7.0 + if r.arm == AugMode::Sia { -0.05 } else { 0.0 },
+        |_| 100.0,
+    );
+    let (from_runs, from_records) = (tmp.path().join("a"), tmp.path().join("b"));
+    collect(&dir, &from_runs).unwrap();
+    let lines = std::fs::read_to_string(dir.join("records.jsonl")).unwrap();
+    assert_eq!(lines.lines().count(), plan.runs.len());
+    // The committed part of the study: the plan and the records.
+    let committed = tmp.path().join("committed");
+    std::fs::create_dir_all(&committed).unwrap();
+    for f in ["study.toml", "records.jsonl"] {
+        std::fs::copy(dir.join(f), committed.join(f)).unwrap();
+    }
+    collect(&committed, &from_records).unwrap();
+    let (ta, tb) = (tree(&from_runs), tree(&from_records));
+    assert_eq!(ta.keys().collect::<Vec<_>>(), tb.keys().collect::<Vec<_>>());
+    for (k, v) in &ta {
+        assert!(tb[k] == *v, "{} differs", k.display());
+    }
+    // A finished run's record makes it done for a study continued elsewhere.
+    let records = neus_aug::study::store::read(&committed).unwrap();
+    assert_eq!(
+        run_state(&committed, &plan.runs[0], None, &records).unwrap(),
+        RunState::Done
+    );
+    // A record whose configuration is not the plan's is refused, naming the run.
+    let tampered = lines.replacen("iterations = 2000", "iterations = 1999", 1);
+    assert_ne!(tampered, lines);
+    std::fs::write(committed.join("records.jsonl"), tampered).unwrap();
+    let e = collect(&committed, &from_records).unwrap_err().to_string();
+    assert!(e.contains(&plan.runs[0].id), "{e}");
+}
+
+/// A run folder written before every key was saved (schema 1: keys at their defaults left out,
+/// and keys of since-removed features at "off") still loads: its configuration reads as the
+/// same run, and a removed feature that was on is refused by name.
+#[test]
+fn a_schema_1_run_folder_still_loads() {
+    use neus_aug::reconstruct::RunConfig;
+    let text = include_str!("fixtures/schema1-fast-config.toml");
+    let old = RunConfig::from_saved_toml(text, "fixture").unwrap();
+    let mut now = Preset::Fast.config();
+    now.scene = "blob".into();
+    now.out = old.out.clone();
+    now.apply_augment_to_model();
+    assert_eq!(old, now, "the fixture is today's fast preset on blob");
+    assert!(!text.contains("[train.depth]") && now.to_toml().contains("[train.depth.auto]"));
+    // The study's configuration hash reads both texts alike.
+    let o = Path::new("fixture");
+    assert_eq!(
+        neus_aug::study::plan::config_hash_of_toml(text, o).unwrap(),
+        neus_aug::study::plan::config_hash_of_toml(&now.to_toml(), o).unwrap()
+    );
+    let on = text.replace("smooth_voxels = 0.0", "smooth_voxels = 1.5");
+    let e = RunConfig::from_saved_toml(&on, "fixture")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("train.init.smooth_voxels"), "{e}");
 }

@@ -3,13 +3,9 @@
 //! [`crate::augment`].
 
 use super::{normalise_name, range_text, AugmentError};
-use crate::scene::image::RgbImage;
+use crate::scene::image::{luma, RgbImage};
 use std::fmt;
 use std::str::FromStr;
-
-/// ITU-R 601-2 luma weights, as Pillow's `convert("L")` uses them (`L = R·299/1000 + G·587/1000
-/// + B·114/1000`, Pillow `Image.convert` docs).
-pub const LUMA_WEIGHTS: [f32; 3] = [0.299, 0.587, 0.114];
 
 /// Pillow's `ImageFilter.SMOOTH` kernel (row-major, `[dy][dx]` for `dy, dx ∈ {-1, 0, 1}`), divided by
 /// [`SMOOTH_DIVISOR`].
@@ -178,12 +174,6 @@ impl FromStr for Manipulation {
                 expected: Self::ALL.map(|m| m.name()).join(", "),
             })
     }
-}
-
-/// ITU-R 601-2 luma of one `[r, g, b]` pixel (see [`LUMA_WEIGHTS`]).
-#[inline]
-pub fn luma(c: [f32; 3]) -> f32 {
-    LUMA_WEIGHTS[0] * c[0] + LUMA_WEIGHTS[1] * c[1] + LUMA_WEIGHTS[2] * c[2]
 }
 
 /// Mean luma of the whole image (contrast's blend target), accumulated in f64; 0 for an empty

@@ -93,9 +93,10 @@ mod sheet;
 mod spec;
 mod views;
 
+pub use crate::scene::image::{luma, LUMA_WEIGHTS};
 pub use config::{AugMode, AugmentConfig, DiaWidths, SiaIntensities};
 pub use degradation::{degrade_views, motion_blur_kernel, Degradation, DegradationKind};
-pub use manipulation::{gray_mean, luma, Manipulation, PixelSource, LUMA_WEIGHTS};
+pub use manipulation::{gray_mean, Manipulation, PixelSource};
 pub use sampler::{AugChoice, AugSample, AugSampler, PixelRef};
 pub use sheet::{contact_sheet, downscale_to_fit, ContactSheet};
 pub use spec::ImageOp;

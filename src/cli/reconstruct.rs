@@ -52,10 +52,11 @@ pub struct ReconstructArgs {
     pub scan: Option<u32>,
     /// Continue the run in the output folder from its checkpoint, with the configuration in its
     /// own config.toml (`reconstruct --out DIR --resume` needs no other option; options given
-    /// must agree with it). A folder without a run starts one.
+    /// must agree with it). A folder without a run starts one when the command names the scene.
     #[arg(long)]
     pub resume: bool,
-    /// Redo a finished run in the output folder.
+    /// Redo a finished run in the output folder (the finished run is kept aside until the new
+    /// one has finished, and comes back if it fails).
     #[arg(long)]
     pub force: bool,
     /// No progress output.
@@ -154,7 +155,9 @@ pub fn run(args: ReconstructArgs) -> anyhow::Result<()> {
 
 /// The configuration of `--resume`: the run folder's own `config.toml` when it has one (options
 /// given are checked against it, see [`reconstruct::resolve_resume`]), else the usual resolution
-/// (a folder without a run yet: the first attempt of a study job, for example).
+/// (a folder without a run yet: the first attempt of a study job, for example), but only when
+/// the command names what to run: `--resume` alone on a folder without a run is refused rather
+/// than starting the default scene there.
 fn resume_config(
     args: &ReconstructArgs,
     sets: &[(String, toml::Value)],
@@ -177,6 +180,15 @@ fn resume_config(
             sets,
         )?)
     } else {
+        let named =
+            args.scene.is_some() || args.config.is_some() || sets.iter().any(|(k, _)| k == "scene");
+        anyhow::ensure!(
+            named,
+            "--resume: {} holds no run to resume (no config.toml); to start one there, name the \
+             scene and drop --resume (e.g. `neus-aug reconstruct SCENE --out {}`)",
+            out.display(),
+            out.display()
+        );
         Ok(reconstruct::resolve(
             args.preset,
             args.config.as_deref(),

@@ -11,8 +11,7 @@ use serde::{Deserialize, Serialize};
 pub enum ConfigError {
     #[error("field config: `{key}` = {value} is invalid: {why}")]
     Invalid {
-        /// The key under the field config, e.g. `hash_grid.n_levels` or
-        /// `color_grid.grid.n_levels`.
+        /// The key under the field config, e.g. `hash_grid.n_levels`.
         key: String,
         value: String,
         why: &'static str,
@@ -239,42 +238,6 @@ impl Default for AppearanceConfig {
     }
 }
 
-/// A second hash grid that feeds only the colour network (off by default): its encoding of the
-/// sample position is appended to the colour input, so the texture can live in entries of its
-/// own instead of the geometry grid's (issue 13: on `cup`, fitting the texture through the shared
-/// entries moved the walls; `results/geometry/cup-resolution-warmup-2026-11-26`). NeuS
-/// (`models/fields.py`, `RenderingNetwork` takes the SDF network's feature vector),
-/// instant-nsr-pl (`models/neus.py`) and Neuralangelo all read the colour features from the
-/// geometry's network; this grid is an addition of this project, not a reference convention.
-/// The colour loss's gradient still reaches the geometry through the SDF features, the normal
-/// and the density.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ColorGridConfig {
-    /// Build the grid and feed it to the colour network (false).
-    pub enabled: bool,
-    /// Its shape: 12 levels of 2 features, `T = 2^15`, base resolution 16, the geometry grid's
-    /// growth factor (finest level 338, about the texture's detail at 400 × 300), no xyz
-    /// prefix; `progressive` must stay unset. Sized for cost: it adds 0.66 M parameters to
-    /// `fast`'s 2.04 M and about 30 % to its step time (results/geometry/cup-color-grid-2026-11-27).
-    pub grid: HashGridConfig,
-}
-
-impl Default for ColorGridConfig {
-    fn default() -> Self {
-        Self {
-            enabled: false,
-            grid: HashGridConfig {
-                n_levels: 12,
-                log2_hashmap_size: 15,
-                base_resolution: 16.0,
-                include_xyz: false,
-                ..HashGridConfig::default()
-            },
-        }
-    }
-}
-
 /// Everything that shapes the field's parameters.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
@@ -283,24 +246,12 @@ pub struct FieldConfig {
     pub sdf: SdfMlpConfig,
     pub color: ColorMlpConfig,
     pub appearance: AppearanceConfig,
-    pub color_grid: ColorGridConfig,
 }
 
 impl FieldConfig {
     /// Checks sizes; the error names the key and value.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.hash_grid.validate("hash_grid")?;
-        let cg = &self.color_grid;
-        if cg.enabled {
-            cg.grid.validate("color_grid.grid")?;
-            if cg.grid.progressive.is_some() {
-                return Err(invalid(
-                    "color_grid.grid.progressive",
-                    "set",
-                    "the colour grid has no coarse-to-fine schedule (all its levels are always active)",
-                ));
-            }
-        }
         if self.sdf.n_neurons == 0 || self.sdf.n_hidden_layers == 0 {
             return Err(invalid(
                 "sdf.n_neurons/n_hidden_layers",
@@ -358,24 +309,9 @@ impl FieldConfig {
         }
     }
 
-    /// Width of the colour grid's part of the colour input: `3·include_xyz + L·F` when
-    /// enabled, else 0.
-    pub fn color_grid_dim(&self) -> usize {
-        let g = &self.color_grid;
-        if g.enabled {
-            3 * usize::from(g.grid.include_xyz) + g.grid.n_levels * g.grid.n_features_per_level
-        } else {
-            0
-        }
-    }
-
-    /// Width of the colour-MLP input: `feature_dim + 16 + 3 + appearance_dim + color_grid_dim`
-    /// (in that order).
+    /// Width of the colour-MLP input: `feature_dim + 16 + 3 + appearance_dim` (in that
+    /// order).
     pub fn color_input_dim(&self) -> usize {
-        self.sdf.feature_dim
-            + crate::field::sh::SH_DIM
-            + 3
-            + self.appearance_dim()
-            + self.color_grid_dim()
+        self.sdf.feature_dim + crate::field::sh::SH_DIM + 3 + self.appearance_dim()
     }
 }

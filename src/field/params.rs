@@ -7,9 +7,8 @@ use serde::{Deserialize, Serialize};
 /// One named slice of the flat buffer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ParamGroup {
-    /// `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`, with a learned
-    /// background (`crate::render::background`) `bg_density` and `bg_color`, and with a colour
-    /// grid (`FieldConfig::color_grid`) `color_grid`.
+    /// `hash_grid`, `sdf_mlp`, `color_mlp`, `variance`, `appearance`, and with a learned
+    /// background (`crate::render::background`) `bg_density` and `bg_color`.
     pub name: String,
     /// First element in the flat buffer.
     pub offset: usize,

@@ -47,6 +47,7 @@ pub mod sdf;
 pub mod subdivide;
 pub mod tables;
 pub mod topology;
+pub mod trace;
 
 pub use dtu_eval::mesh::TriMesh;
 pub use extract::{extract_two_pass, to_world, TwoPassOptions};

@@ -6,12 +6,11 @@
 //! the resolved configuration is written to the run folder as `config.toml`.
 //!
 //! Here: the option structs, their range checks ([`RunConfig::validate`]) and the training hash.
-//! The presets live in `preset.rs` ([`Preset`], [`delayed_curvature`]), the resolution of files,
-//! flags and `--set` overrides in `overrides.rs` ([`resolve`], [`resolve_resume`],
-//! [`parse_set`]); both are re-exported here.
+//! The presets' values live in `preset.rs` (`Preset::config`, `delayed_curvature`), the
+//! resolution of files, flags and `--set` overrides in `overrides.rs` (`resolve`,
+//! `resolve_resume`, `parse_set`).
 
 pub use super::overrides::{parse_set, resolve, resolve_resume};
-pub use super::preset::{delayed_curvature, Preset};
 
 use crate::augment::{AugMode, AugmentConfig, Degradation};
 use crate::render::ModelConfig;
@@ -54,6 +53,36 @@ pub(super) fn invalid(key: &str, value: impl std::fmt::Display, why: &str) -> Co
         key: key.into(),
         value: value.to_string(),
         why: why.into(),
+    }
+}
+
+/// Named starting points. `quick`, `fast` and `default` are sized for a 2-core CPU; `paper`
+/// follows instant-nsr-pl `configs/neus-dtu-wmask.yaml` as closely as a CPU allows (hours).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Preset {
+    /// `fast` on half-size training images with half the samples per ray, shortened to
+    /// [`QUICK_ITERATIONS`] steps: about 0.4× of `fast`'s time, under 1 mm on the default scene
+    /// (issue 14).
+    Quick,
+    /// Minutes on 2 cores: smaller hash table, fewer steps, coarser sampling.
+    Fast,
+    /// Tens of minutes on 2 cores.
+    #[default]
+    Default,
+    /// The reference configuration (20k steps, T = 2^19, 1024 samples per ray): hours.
+    Paper,
+}
+
+impl Preset {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Quick => "quick",
+            Preset::Fast => "fast",
+            Preset::Default => "default",
+            Preset::Paper => "paper",
+        }
     }
 }
 
@@ -152,9 +181,7 @@ pub struct MeshConfig {
     /// values of both passes before marching cubes (`mesh::closing`): it fills tunnels and
     /// pinholes narrower than about two cells (`2·close_radius`), which a thin sheet can get,
     /// and keeps flat faces, convex parts and wider holes. `0` extracts the raw level set, as
-    /// NeuS and instant-nsr-pl do, and what a config without the key means (absent from a
-    /// config's text at 0, so hashes of runs before the key are unchanged). At most 8.
-    #[serde(skip_serializing_if = "is_zero")]
+    /// NeuS and instant-nsr-pl do. At most 8.
     pub close_radius: usize,
     /// Clean the mesh before writing and scoring it (`mesh::clean`: mask culling, then small
     /// components, then enclosed ones, then unseen faces). The raw marching-cubes mesh is kept
@@ -252,12 +279,6 @@ pub struct RunConfig {
     pub eval: EvalConfig,
 }
 
-impl Default for RunConfig {
-    fn default() -> Self {
-        Preset::Default.config()
-    }
-}
-
 /// Reports the first non-finite float anywhere in a configuration tree, naming its dotted key
 /// (serde accepts `nan` and `inf` for every float field; none of them means anything useful).
 fn check_finite(prefix: &str, v: &toml::Value) -> Result<(), ConfigError> {
@@ -281,13 +302,108 @@ fn check_finite(prefix: &str, v: &toml::Value) -> Result<(), ConfigError> {
     }
 }
 
+/// The version of the `config.toml` layout this build writes: 2 writes every key (schema 1 left
+/// out keys at their defaults).
+pub const CONFIG_SCHEMA: u32 = 2;
+
+/// Schema 1 → 2: removes the keys of features no longer in the product when they held the
+/// value that means "off", refusing a key that says the feature was on.
+fn migrate_schema1(t: &mut toml::Table) -> Result<(), String> {
+    type Off = fn(&toml::Value) -> bool;
+    let zero: Off = |v| v.as_float() == Some(0.0) || v.as_integer() == Some(0);
+    let any: Off = |_| true;
+    let unset_weight: Off = |v| {
+        let zero = |w: &toml::Value| w.as_float() == Some(0.0) || w.as_integer() == Some(0);
+        v.as_table()
+            .is_none_or(|s| s.get("weight").is_none_or(zero))
+    };
+    let disabled: Off = |v| {
+        v.as_table()
+            .is_none_or(|s| s.get("enabled").is_none_or(|e| e.as_bool() == Some(false)))
+    };
+    // (section path, key, is the value "off"?, what the feature was)
+    let removed: [(&[&str], &str, Off, &str); 8] = [
+        (
+            &["train", "init"],
+            "smooth_voxels",
+            zero,
+            "a blur of the visual hull",
+        ),
+        (
+            &["train", "init"],
+            "photo_tau",
+            zero,
+            "the photo-consistency carve",
+        ),
+        (
+            &["train", "init"],
+            "photo_min_views",
+            any,
+            "the photo-consistency carve",
+        ),
+        (
+            &["train", "init"],
+            "photo_max_iterations",
+            any,
+            "the photo-consistency carve",
+        ),
+        (&["train"], "unseen", unset_weight, "the unseen-space prior"),
+        (
+            &["train"],
+            "multiview",
+            unset_weight,
+            "the multi-view patch prior",
+        ),
+        (
+            &["model", "field"],
+            "color_grid",
+            disabled,
+            "the colour grid",
+        ),
+        (
+            &["train", "depth"],
+            "end_step",
+            |_| false,
+            "an end step of the depth prior",
+        ),
+    ];
+    for (path, key, off, what) in removed {
+        let mut node = Some(&mut *t);
+        for p in path {
+            node = node
+                .and_then(|n| n.get_mut(*p))
+                .and_then(|v| v.as_table_mut());
+        }
+        let Some(section) = node else { continue };
+        if let Some(v) = section.remove(key) {
+            if !off(&v) {
+                return Err(format!(
+                    "`{}.{key}` = {v} turns on {what}, which this release no longer has; \
+                     resume or reproduce the run with neus-aug 734b689 or earlier",
+                    path.join(".")
+                ));
+            }
+        }
+    }
+    if let Some(d) = t
+        .get_mut("train")
+        .and_then(|v| v.as_table_mut())
+        .and_then(|t| t.get_mut("depth"))
+        .and_then(|v| v.as_table_mut())
+    {
+        if let Some(v) = d.remove("final_weight") {
+            return Err(format!(
+                "`train.depth.final_weight` = {v} ramps the depth prior's weight, which this \
+                 release no longer does; use neus-aug 734b689 or earlier"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Largest grid points per axis of a marching-cubes pass: the SDF grid alone takes `res³ × 4`
 /// bytes (32 GiB at 2048); the reference extracts at 512.
 pub const MAX_MESH_RES: usize = 2048;
-
-fn is_zero(n: &usize) -> bool {
-    *n == 0
-}
 
 /// Largest accepted `mesh.close_radius` (grid points): wider closings fill real concavities.
 pub const MAX_CLOSE_RADIUS: usize = 8;
@@ -333,24 +449,11 @@ impl RunConfig {
         if let Some((key, value, why)) = t.init.invalid() {
             return Err(invalid(key, value, why));
         }
-        if let Some((key, value, why)) = t.unseen.invalid() {
-            return Err(invalid(key, value, why));
-        }
         if let Some((key, value, why)) = t.error_map.invalid() {
             return Err(invalid(key, value, why));
         }
-        if let Some((key, value, why)) = t.multiview.invalid() {
-            return Err(invalid(key, value, why));
-        }
         if let Some((key, value, why)) = t.depth.invalid() {
-            return Err(invalid(key, value, why));
-        }
-        if t.unseen.enabled() && !self.data.masks {
-            return Err(invalid(
-                "train.unseen.weight",
-                t.unseen.weight,
-                "the unseen-space prior needs the masks' visual hull, and data.masks is false",
-            ));
+            return Err(invalid(&key, value, why));
         }
         if t.init.kind == InitKind::VisualHull && !self.data.masks {
             return Err(invalid(
@@ -534,9 +637,63 @@ impl RunConfig {
         Ok(())
     }
 
-    /// The resolved configuration as TOML (what `config.toml` holds).
+    /// The resolved configuration as TOML (what `config.toml` and `--print-config` hold): the
+    /// schema version ([`CONFIG_SCHEMA`]), a comment naming the optional keys this run leaves
+    /// unset (TOML has no null), then every other key with its value.
     pub fn to_toml(&self) -> String {
-        toml::to_string_pretty(self).expect("the configuration serialises")
+        let body = toml::to_string_pretty(self).expect("the configuration serialises");
+        let unset: Vec<&str> = [
+            ("out", self.out.is_none()),
+            ("data.degrade", self.data.degrade.is_none()),
+            (
+                "model.field.hash_grid.progressive",
+                self.model.field.hash_grid.progressive.is_none(),
+            ),
+            ("eval.gt_root", self.eval.gt_root.is_none()),
+            ("eval.scan", self.eval.scan.is_none()),
+        ]
+        .into_iter()
+        .filter_map(|(k, unset)| unset.then_some(k))
+        .collect();
+        let note = if unset.is_empty() {
+            String::new()
+        } else {
+            format!("# unset (no value): {}\n", unset.join(", "))
+        };
+        format!(
+            "# neus-aug run configuration: every key the run used.\n{note}schema = \
+             {CONFIG_SCHEMA}\n{body}"
+        )
+    }
+
+    /// Reads a saved configuration (`config.toml` of a run folder, or a checkpoint's copy),
+    /// whatever schema wrote it. Schema 1 (no `schema` key; before every key was written) left
+    /// out keys at their defaults, which serde fills in, and may hold keys of features since
+    /// removed: those are dropped when they say the feature was off, and refused, naming the key,
+    /// when it was on (such a run needs the release that had the feature). `origin` names the
+    /// text in errors.
+    pub fn from_saved_toml(text: &str, origin: &str) -> Result<Self, ConfigError> {
+        let parse = |message: String| ConfigError::Parse {
+            origin: origin.into(),
+            message,
+        };
+        let mut t: toml::Table = toml::from_str(text).map_err(|e| parse(e.to_string()))?;
+        let schema = match t.remove("schema") {
+            None => 1,
+            Some(toml::Value::Integer(v)) if (1..=CONFIG_SCHEMA as i64).contains(&v) => v as u32,
+            Some(v) => {
+                return Err(parse(format!(
+                    "schema = {v}: this build reads schemas 1 to {CONFIG_SCHEMA}; a newer \
+                     neus-aug wrote it"
+                )))
+            }
+        };
+        if schema == 1 {
+            migrate_schema1(&mut t).map_err(parse)?;
+        }
+        toml::Value::Table(t)
+            .try_into()
+            .map_err(|e: toml::de::Error| parse(e.to_string()))
     }
 
     /// A hash of everything that shapes training (scene, seed, data, augmentation, model,

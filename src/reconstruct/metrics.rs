@@ -91,25 +91,20 @@ pub struct TrainSummary {
     /// absent for the other kinds.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sphere_cover: Option<f64>,
-    /// The photo-consistency carve of the hull (`train.init.photo_tau > 0`); absent when off.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub photo_carve: Option<crate::train::photo_hull::PhotoCarveReport>,
-    /// The unseen-space prior at the last step (`train.unseen`); `null` when off.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub unseen_last: Option<crate::train::unseen::UnseenStep>,
-    /// The multi-view patch consistency at the last step (`train.multiview`); absent when off.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub multiview_last: Option<crate::train::multiview::MultiViewStep>,
     /// The stereo of the depth prior (`train.depth`); absent when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub depth_maps: Option<crate::train::depth::DepthMapsSummary>,
-    /// The depth prior at the last step (`train.depth`); absent when off or past its end step.
+    pub depth_maps: Option<crate::mvs::DepthMapsSummary>,
+    /// The depth prior at the last step (`train.depth`); absent when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub depth_last: Option<crate::train::depth::DepthStep>,
     /// The depth prior's automatic switch (`train.depth.auto`): what its check found; absent
     /// when it did not run (the prior asked for, no masks, switched off, or `paper`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub depth_auto: Option<crate::train::depth_auto::AutoCheck>,
+    /// Why the automatic switch, on, did not check (its step falls outside the run); absent
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_auto_skipped: Option<String>,
     /// Error-map sampling at the end of training (`train.error_map`); absent when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error_map: Option<crate::train::error_map::ErrorMapSummary>,

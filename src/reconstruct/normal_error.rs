@@ -9,9 +9,9 @@
 //! how bumpy or wrong the surface is where both agree there is one; silhouette disagreement is
 //! left to Chamfer.
 
+use crate::mesh::trace::Tracer;
 use crate::mesh::TriMesh;
 use crate::scene::{Normalization, RgbImage};
-use crate::sim::setup::Tracer;
 use glam::Vec3A;
 use obvhs::triangle::Triangle;
 

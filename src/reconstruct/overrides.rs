@@ -3,8 +3,8 @@
 //! one TOML tree that is deserialised and validated once; and the check that `--resume` changes
 //! nothing.
 
+use super::config::Preset;
 use super::config::{invalid, ConfigError, RunConfig};
-use super::preset::Preset;
 
 /// Deep-merges `over` into `base` (tables merge key by key; other values replace).
 fn merge(base: &mut toml::Value, over: toml::Value) {
@@ -157,14 +157,11 @@ pub fn resolve_resume(
     overrides: &[(String, toml::Value)],
 ) -> Result<RunConfig, ConfigError> {
     let dir = saved.parent().map(|p| p.to_path_buf()).unwrap_or_default();
-    let saved_tree = read_toml(saved)?;
-    let saved_cfg: RunConfig = saved_tree
-        .clone()
-        .try_into()
-        .map_err(|e: toml::de::Error| ConfigError::Parse {
-            origin: saved.display().to_string(),
-            message: e.to_string(),
-        })?;
+    let text = std::fs::read_to_string(saved).map_err(|source| ConfigError::Io {
+        path: saved.into(),
+        source,
+    })?;
+    let saved_cfg = RunConfig::from_saved_toml(&text, &saved.display().to_string())?;
     let file_value = file.map(read_toml).transpose()?;
     for p in [preset, preset_of(file_value.as_ref())?]
         .into_iter()

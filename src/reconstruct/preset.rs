@@ -1,46 +1,21 @@
 //! The presets of a `reconstruct` run: named starting points for every option of
 //! [`RunConfig`], and the curvature schedule they share ([`delayed_curvature`]).
 
-use super::config::{DataConfig, EvalConfig, MeshConfig, RunConfig};
+use super::config::{DataConfig, EvalConfig, MeshConfig, Preset, RunConfig};
 use crate::augment::AugmentConfig;
 use crate::field::config::ProgressiveConfig;
 use crate::render::occupancy::{decay_for_run, rescale_decay};
 use crate::render::{ModelConfig, Scheduled};
 use crate::train::hull::InitKind;
 use crate::train::TrainConfig;
-use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
 /// Training steps of the `quick` preset (`fast` has 2000).
 pub const QUICK_ITERATIONS: u64 = 1400;
 
-/// Named starting points. `quick`, `fast` and `default` are sized for a 2-core CPU; `paper`
-/// follows instant-nsr-pl `configs/neus-dtu-wmask.yaml` as closely as a CPU allows (hours).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum Preset {
-    /// `fast` on half-size training images with half the samples per ray, shortened to
-    /// [`QUICK_ITERATIONS`] steps: about 0.4× of `fast`'s time, under 1 mm on the default scene
-    /// (issue 14).
-    Quick,
-    /// Minutes on 2 cores: smaller hash table, fewer steps, coarser sampling.
-    Fast,
-    /// Tens of minutes on 2 cores.
-    #[default]
-    Default,
-    /// The reference configuration (20k steps, T = 2^19, 1024 samples per ray): hours.
-    Paper,
-}
-
-impl Preset {
-    /// Lower-case name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Preset::Quick => "quick",
-            Preset::Fast => "fast",
-            Preset::Default => "default",
-            Preset::Paper => "paper",
-        }
+impl Default for RunConfig {
+    fn default() -> Self {
+        Preset::Default.config()
     }
 }
 

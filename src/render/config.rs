@@ -8,7 +8,7 @@
 //! `train`. Only the settings live here; every loss value and gradient is computed in `train`.
 
 use super::occupancy::OccupancyConfig;
-use super::schedule::Scheduled;
+use super::scheduled::Scheduled;
 use crate::field::FieldConfig;
 use serde::{Deserialize, Serialize};
 
@@ -62,29 +62,17 @@ pub struct RenderConfig {
     /// `k` so the loss stays an unbiased estimate of the mean over all samples. A one-sided
     /// difference costs about 0.6 of a central one in the hash grid and the SDF network: the
     /// training step runs 1.3× faster on one-sided samples (`cargo bench --bench field`, issue
-    /// 14), at a measured accuracy cost over `ε` (`results/speed/zen4-2026-11-26-one-sided`)
-    /// and none over `2ε` (`fd_one_sided_span = 2`, the `fast` preset's layout with `k = 4`:
-    /// `results/geometry/span2-fast-2026-11-26`). This project's choice, not a reference's.
-    /// Renders and meshes after training always use central differences. Left out of a
-    /// config's text at 1, so earlier configs and hashes hold.
-    #[serde(skip_serializing_if = "is_one")]
+    /// 14), at an accuracy cost over `ε` and none measured over `2ε`
+    /// (`fd_one_sided_span = 2`; `docs/recipe.md`). This project's choice, not a reference's.
+    /// Renders and meshes after training always use central differences.
     pub fd_central_every: u32,
     /// Span of a one-sided difference in units of `ε` (default 1): its taps sit at
     /// `x ± span·ε·e_a` and it divides by `span·ε`. At 2 a one-sided difference averages the
     /// gradient over the same `2ε` as a central one (the smoothing of Neuralangelo's numerical
     /// gradient, `projects/neuralangelo/utils/modules.py`), at twice its first-order error
     /// (which the alternation of sides cancels on average). Only read when
-    /// `fd_central_every > 1`. This project's choice. Left out of a config's text at 1.
-    #[serde(skip_serializing_if = "is_one_f32")]
+    /// `fd_central_every > 1`. This project's choice.
     pub fd_one_sided_span: f32,
-}
-
-fn is_one_f32(v: &f32) -> bool {
-    *v == 1.0
-}
-
-fn is_one(v: &u32) -> bool {
-    *v == 1
 }
 
 impl Default for RenderConfig {
@@ -251,11 +239,6 @@ impl BackgroundConfig {
     pub fn enabled(&self) -> bool {
         self.kind != BackgroundKind::None
     }
-
-    /// Every field at its default (the section is then left out of a written config).
-    pub fn is_default(&self) -> bool {
-        *self == Self::default()
-    }
 }
 
 /// Everything that defines a model (sits in the TOML config as `[model]`).
@@ -266,7 +249,6 @@ pub struct ModelConfig {
     pub render: RenderConfig,
     pub loss: LossConfig,
     /// The learned background (off by default).
-    #[serde(skip_serializing_if = "BackgroundConfig::is_default")]
     pub background: BackgroundConfig,
 }
 

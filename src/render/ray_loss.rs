@@ -13,7 +13,7 @@
 //! [`super::config`] because they are part of [`ModelConfig`](super::ModelConfig), which the
 //! model holds.
 
-use super::model::ModelError;
+use super::error::ModelError;
 
 /// Counts of a marched batch that a loss normalises by.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -1,13 +1,12 @@
 //! Losses on the SDF channel at points, and their gradients: the regression onto target values
 //! that the visual-hull initialisation (`train::hull`) minimises before the first rendering
-//! step, and the hinge that the unseen-space prior (`train::unseen`) adds during training.
+//! step, and a weighted sum of SDF values (the depth prior's loss, `train::depth`).
 //!
 //! The regression is the mean absolute error `L = (1/n) Σ_i |f(x_i) − t_i|` of the SDF network's
 //! channel 0 at points `x_i` (normalised space, inside the box `[-r, r]³`) against targets `t_i`
 //! (normalised units). L1, as IGR and DeepSDF fit signed distances (DeepSDF §4, clamped L1): a
-//! few far-off targets do not dominate the near-surface ones. The hinge is
-//! `L = (w/n) Σ_i max(0, f(x_i))`: zero where the field already says "inside". Both gradients
-//! flow through the SDF network and the hash grid only; no other group is touched.
+//! few far-off targets do not dominate the near-surface ones. The gradients flow through the SDF
+//! network and the hash grid only; no other group is touched.
 
 use super::workspace::{split, split_mut};
 use super::NeusModel;
@@ -42,32 +41,6 @@ impl NeusModel {
             };
             (e.abs().to_f64(), d)
         }) / points.len().max(1) as f64
-    }
-
-    /// `L = (w/n) Σ max(0, f(x_i))` over `points [n][3]`, with `active` hash levels: pushes the
-    /// SDF at the points to "inside" (≤ 0) and leaves points already inside alone. Adds `∂L/∂θ`
-    /// into `grads` (only the `hash_grid` and `sdf_mlp` groups are written); returns `L` (0 for no
-    /// points) and the number of points with `f > 0`. At `f = 0` the subgradient 0 is used.
-    pub fn sdf_hinge_loss_grad<T: Real>(
-        &self,
-        params: &[T],
-        points: &[[T; 3]],
-        weight: f64,
-        active: usize,
-        grads: &mut [T],
-    ) -> (f64, usize) {
-        let n = points.len().max(1) as f64;
-        let d = T::from_f64(weight / n);
-        let mut positive = 0;
-        let sum = self.sdf_point_loss_grad(params, points, active, grads, |_, f| {
-            if f > T::ZERO {
-                positive += 1;
-                (f.to_f64(), d)
-            } else {
-                (0.0, T::ZERO)
-            }
-        });
-        (weight * sum / n, positive)
     }
 
     /// Adds `Σ_i w_i·∂f(x_i)/∂θ` into `grads` for `points [n][3]` and weights `w [n]`, with

@@ -23,12 +23,12 @@ use super::background::{
     composite_two_backward, composite_two_forward, BackgroundSamples, Layer, RayGrad,
 };
 use super::composite::{composite_backward, composite_forward};
-use super::model::{PhaseTimes, RayBatch, RayResult};
+use super::neus::NeusModel;
+use super::neus::{PhaseTimes, RayBatch, RayResult};
 use super::ray_loss::{BatchCounts, RayLoss};
 use super::rays::RaySamples;
 use super::schedule::Schedule;
 use super::workspace::{tap_rows, Groups, GroupsMut, Scratch};
-use super::NeusModel;
 use crate::field::config::AppearanceConfig;
 use crate::field::hashgrid::Sides;
 use crate::field::sh::{sh4, SH_DIM};
@@ -75,8 +75,6 @@ struct Chunk<'a, T> {
     wh: usize,
     /// Colour network input width.
     dc: usize,
-    /// The colour grid's width at the end of each colour input row (0 without one).
-    dg: usize,
     app: &'a AppearanceConfig,
     radius: T,
     active: usize,
@@ -142,7 +140,6 @@ impl NeusModel {
             d: self.grid.output_dim(),
             wh: self.sdf_mlp.last_hidden_dim(),
             dc: cfgf.color_input_dim(),
-            dg: cfgf.color_grid_dim(),
             app: &cfgf.appearance,
             radius: T::from_f32(self.config.render.radius),
             active,
@@ -455,18 +452,6 @@ impl NeusModel {
                 i += 1;
             }
         }
-        if let Some(cg) = &self.color_grid {
-            // All levels, always: the colour grid has no coarse-to-fine schedule.
-            let g0 = dc - c.dg;
-            cg.encode_batch(
-                p.cgrid,
-                &sc.points,
-                c.radius,
-                cg.levels.len(),
-                &mut sc.color_in[g0..],
-                dc,
-            );
-        }
         self.color_mlp
             .forward_hidden(p.color, &sc.color_in, n, &mut sc.color_tape);
         sc.color_logits.resize(n * 3, T::ZERO);
@@ -645,8 +630,7 @@ impl NeusModel {
         }
     }
 
-    /// The colour network's backward: parameter gradients into `g.color` (and the colour grid's
-    /// into `g.cgrid`), `d_color_in`.
+    /// The colour network's backward: parameter gradients into `g.color`, `d_color_in`.
     #[inline]
     fn color_backward<T: Real>(
         &self,
@@ -688,13 +672,6 @@ impl NeusModel {
             &mut sc.mlp_work,
             Some(&mut sc.d_color_in),
         );
-        if let Some(cg) = &self.color_grid {
-            let g0 = dc - c.dg;
-            for i in 0..n {
-                let d_row = &sc.d_color_in[i * dc + g0..(i + 1) * dc];
-                cg.encode_backward(sc.points[i], c.radius, cg.levels.len(), d_row, g.cgrid);
-            }
-        }
     }
 
     /// Alpha, normal, eikonal and curvature backward to the SDF outputs (`d_sdf_feature`) and

@@ -77,8 +77,6 @@ pub(super) struct GroupsMut<'a, T> {
     /// The background networks (empty without a learned background).
     pub(super) bg_density: &'a mut [T],
     pub(super) bg_color: &'a mut [T],
-    /// The colour grid's table (empty without one).
-    pub(super) cgrid: &'a mut [T],
 }
 
 /// Read-only parameter views of each group.
@@ -91,8 +89,6 @@ pub(super) struct Groups<'a, T> {
     /// The background networks (empty without a learned background).
     pub(super) bg_density: &'a [T],
     pub(super) bg_color: &'a [T],
-    /// The colour grid's table (empty without one).
-    pub(super) cgrid: &'a [T],
 }
 
 /// Per-shard buffers, reused across chunks (resized, never shrunk; a phase overwrites what it
@@ -128,7 +124,7 @@ pub(super) struct Scratch<T> {
     /// `[n][3]` normal `∇f / max(|∇f|, 1e-12)`.
     pub(super) normal: Vec<[T; 3]>,
     /// `[n][dc]` colour network input: feature, SH of the direction, normal, appearance code (and
-    /// scalar `p`), colour-grid encoding (when `field.color_grid` is on).
+    /// scalar `p`).
     pub(super) color_in: Vec<T>,
     /// Colour network activations (input of its backward).
     pub(super) color_tape: MlpTape<T>,
@@ -215,8 +211,6 @@ pub(super) const APPEARANCE: &str = "appearance";
 /// The learned background's groups, after the five above and only when it is on.
 pub(super) const BG_DENSITY: &str = "bg_density";
 pub(super) const BG_COLOR: &str = "bg_color";
-/// The colour grid's table (`field.color_grid`), last and only when it is on.
-pub(super) const COLOR_GRID: &str = "color_grid";
 
 /// The index range of an optional group (empty, at the end, when the layout lacks it).
 fn optional_group(layout: &ParamLayout, name: &str) -> std::ops::Range<usize> {
@@ -243,7 +237,6 @@ pub(super) fn split<'a, T>(layout: &ParamLayout, p: &'a [T]) -> Groups<'a, T> {
         app: &p[group(layout, APPEARANCE)],
         bg_density: &p[optional_group(layout, BG_DENSITY)],
         bg_color: &p[optional_group(layout, BG_COLOR)],
-        cgrid: &p[optional_group(layout, COLOR_GRID)],
     }
 }
 
@@ -258,8 +251,7 @@ pub(super) fn split_mut<'a, T>(layout: &ParamLayout, p: &'a mut [T]) -> GroupsMu
     let (var, rest) = rest.split_at_mut(len(VARIANCE));
     let (app, rest) = rest.split_at_mut(len(APPEARANCE));
     let (bg_density, rest) = rest.split_at_mut(optional_group(layout, BG_DENSITY).len());
-    let (bg_color, rest) = rest.split_at_mut(optional_group(layout, BG_COLOR).len());
-    let (cgrid, _) = rest.split_at_mut(optional_group(layout, COLOR_GRID).len());
+    let (bg_color, _) = rest.split_at_mut(optional_group(layout, BG_COLOR).len());
     GroupsMut {
         hash,
         sdf,
@@ -268,6 +260,5 @@ pub(super) fn split_mut<'a, T>(layout: &ParamLayout, p: &'a mut [T]) -> GroupsMu
         app,
         bg_density,
         bg_color,
-        cgrid,
     }
 }

@@ -202,6 +202,43 @@ impl Camera {
     }
 }
 
+/// A pinhole's intrinsics with focal length `f` pixels on both axes and the principal point at
+/// the centre of a `width × height` image (test rigs).
+pub fn centred_intrinsics(f: f64, width: u32, height: u32) -> Matrix3<f64> {
+    let (cx, cy) = (width as f64 / 2.0, height as f64 / 2.0);
+    Matrix3::new(f, 0.0, cx, 0.0, f, cy, 0.0, 0.0, 1.0)
+}
+
+/// A camera at `eye` looking at `target` with `up` pointing to the image's top (OpenCV axes:
+/// x right, y down, z forward; `x = z × up`, `y = z × x`).
+pub fn look_at(
+    eye: Vector3<f64>,
+    target: Vector3<f64>,
+    up: Vector3<f64>,
+    k: Matrix3<f64>,
+    width: u32,
+    height: u32,
+) -> Camera {
+    let z = (target - eye).normalize();
+    let x = z.cross(&up).normalize();
+    let y = z.cross(&x);
+    Camera {
+        k,
+        r: Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]),
+        center: eye,
+        width,
+        height,
+    }
+}
+
+/// The pixel `(x, y)` whose square holds the projection of `x` (the camera's frame of
+/// reference), `None` when the point is behind the camera or outside its image.
+pub fn pixel_of(cam: &Camera, x: &Vector3<f64>) -> Option<(usize, usize)> {
+    let (u, v, _) = cam.project(x)?;
+    (u >= 0.0 && v >= 0.0 && u < cam.width as f64 && v < cam.height as f64)
+        .then(|| (u.floor() as usize, v.floor() as usize))
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;

@@ -286,6 +286,43 @@ fn quantize(
         .collect()
 }
 
+/// ITU-R 601-2 luma weights, as Pillow's `convert("L")` uses them (`L = R·299/1000 + G·587/1000
+/// + B·114/1000`, Pillow `Image.convert` docs).
+pub const LUMA_WEIGHTS: [f32; 3] = [0.299, 0.587, 0.114];
+
+/// ITU-R 601-2 luma of one `[r, g, b]` pixel (see [`LUMA_WEIGHTS`]).
+#[inline]
+pub fn luma(c: [f32; 3]) -> f32 {
+    LUMA_WEIGHTS[0] * c[0] + LUMA_WEIGHTS[1] * c[1] + LUMA_WEIGHTS[2] * c[2]
+}
+
+/// A mask dilated by a square window of radius `r` pixels (object where `> 0.5`), as booleans
+/// `height × width` row-major. Separable running maximum, `O(width·height)` per axis.
+pub fn dilate_mask(mask: &GrayImage, r: usize) -> Vec<bool> {
+    let (w, h) = (mask.width, mask.height);
+    let on: Vec<bool> = mask.data.iter().map(|&v| v > 0.5).collect();
+    let run = |src: &[bool], len: usize, stride: usize, count: usize, step: usize| {
+        // For each of `count` lines (start `j·step`), OR over a window of ±r along `stride`.
+        let mut out = vec![false; src.len()];
+        for j in 0..count {
+            let base = j * step;
+            // Prefix counts of "on" along the line.
+            let mut pre = vec![0u32; len + 1];
+            for i in 0..len {
+                pre[i + 1] = pre[i] + src[base + i * stride] as u32;
+            }
+            for i in 0..len {
+                let lo = i.saturating_sub(r);
+                let hi = (i + r + 1).min(len);
+                out[base + i * stride] = pre[hi] > pre[lo];
+            }
+        }
+        out
+    };
+    let rows = run(&on, w, 1, h, w);
+    run(&rows, h, w, w, 1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -79,34 +79,7 @@ pub fn intrinsics(width: u32, height: u32) -> Matrix3<f64> {
     Matrix3::new(fx * sx, 0.0, cx * sx, 0.0, fy * sy, cy * sy, 0.0, 0.0, 1.0)
 }
 
-/// A pinhole's intrinsics with focal length `f` pixels on both axes and the principal point at
-/// the centre of a `width × height` image (test rigs).
-pub fn centred_intrinsics(f: f64, width: u32, height: u32) -> Matrix3<f64> {
-    let (cx, cy) = (width as f64 / 2.0, height as f64 / 2.0);
-    Matrix3::new(f, 0.0, cx, 0.0, f, cy, 0.0, 0.0, 1.0)
-}
-
-/// A camera at `eye` looking at `target` with `up` pointing to the image's top (OpenCV axes:
-/// x right, y down, z forward; `x = z × up`, `y = z × x`).
-pub fn look_at(
-    eye: Vector3<f64>,
-    target: Vector3<f64>,
-    up: Vector3<f64>,
-    k: Matrix3<f64>,
-    width: u32,
-    height: u32,
-) -> Camera {
-    let z = (target - eye).normalize();
-    let x = z.cross(&up).normalize();
-    let y = z.cross(&x);
-    Camera {
-        k,
-        r: Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]),
-        center: eye,
-        width,
-        height,
-    }
-}
+pub use crate::scene::camera::{centred_intrinsics, look_at};
 
 /// `(azimuth, elevation)` in degrees of each view, in capture order (see the module doc).
 pub fn view_angles(spec: &RigSpec) -> Vec<(f64, f64)> {

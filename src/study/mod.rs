@@ -24,6 +24,8 @@
 //! base.toml            a copy of --config FILE, when one was given (runs read this copy)
 //! study.lock           held (flock) while a study process runs in the folder
 //! study.log            one line per run started / finished / failed / skipped
+//! records.jsonl        one line per finished run: its config.toml and metrics.json (`store`);
+//!                      what a study commits, and all `study collect` needs beside study.toml
 //! runs/<id>/           one `neus-aug reconstruct` output folder per run (config.toml, metrics.json, …)
 //! report/              what `study collect` writes: report.md, runs.csv, runs.json, summary.json, PNGs
 //! jobs.txt, slurm.sbatch, parallel.sh, logs/   with --emit-jobs
@@ -51,6 +53,7 @@
 //! by the plan's order and formats floats with fixed precision, so its outputs regenerate bit for
 //! bit.
 
+pub mod confighash;
 pub mod grid;
 pub mod jobs;
 pub mod plan;
@@ -58,6 +61,7 @@ pub mod plot;
 pub mod report;
 pub mod run;
 pub mod stats;
+pub mod store;
 
 pub use grid::{Grid, StudyOptions};
 pub use plan::{RunSpec, StudyPlan};

@@ -5,17 +5,20 @@
 //! same order as its command line: preset → `base.toml` → scene, `--aug`, `--seed`,
 //! `--views-fraction`, `--degrade`, `--out` → the study's `--set` → the run's own settings.
 
+pub use super::confighash::{config_diff, config_hash, config_hash_of_toml};
 use super::grid::{self, Grid, RunDraft, StudyOptions};
+use super::store;
 use super::{io_err, write_atomic, StudyError};
 use crate::augment::AugMode;
 use crate::reconstruct::{parse_set, resolve, Preset, RunConfig};
-use crate::util::fnv1a64_hex;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Version of the `study.toml` layout.
-pub const PLAN_FORMAT: u32 = 1;
+/// Version of the `study.toml` layout. Format 2 hashes each run's configuration as the program
+/// reads it ([`config_hash_of_toml`]); format 1 hashed the text, which depended on the keys a
+/// build left out. A format-1 plan is read, its hashes ignored and the plan rewritten.
+pub const PLAN_FORMAT: u32 = 2;
 
 /// File names inside a study folder.
 pub const PLAN_FILE: &str = "study.toml";
@@ -67,72 +70,6 @@ pub struct StudyPlan {
     pub format: u32,
     pub options: StudyOptions,
     pub runs: Vec<RunSpec>,
-}
-
-/// The configuration file's hash used to compare runs: `config.toml` parsed as TOML, `out`
-/// removed (a run folder may be reached by different paths), serialised with sorted keys.
-pub fn config_hash_of_toml(text: &str, origin: &Path) -> Result<String, StudyError> {
-    let t = normalised_table(text, origin)?;
-    Ok(fnv1a64_hex(
-        toml::to_string(&t).expect("tables serialise").as_bytes(),
-    ))
-}
-
-fn normalised_table(text: &str, origin: &Path) -> Result<toml::Table, StudyError> {
-    let mut t: toml::Table = toml::from_str(text).map_err(|e| StudyError::Parse {
-        path: origin.into(),
-        message: e.to_string(),
-    })?;
-    t.remove("out");
-    Ok(t)
-}
-
-/// [`config_hash_of_toml`] of a resolved configuration.
-pub fn config_hash(cfg: &RunConfig) -> String {
-    config_hash_of_toml(&cfg.to_toml(), Path::new("<resolved>")).expect("own TOML parses")
-}
-
-/// The dotted keys whose values differ between two `config.toml` texts (`out` ignored), as
-/// `key: a → b` lines, at most `limit`.
-pub fn config_diff(a: &str, b: &str, limit: usize) -> Vec<String> {
-    fn flatten(prefix: &str, v: &toml::Value, out: &mut BTreeMap<String, String>) {
-        match v {
-            toml::Value::Table(t) => {
-                for (k, v) in t {
-                    let key = if prefix.is_empty() {
-                        k.clone()
-                    } else {
-                        format!("{prefix}.{k}")
-                    };
-                    flatten(&key, v, out);
-                }
-            }
-            other => {
-                out.insert(prefix.to_string(), other.to_string());
-            }
-        }
-    }
-    let flat = |s: &str| {
-        let mut m = BTreeMap::new();
-        if let Ok(t) = normalised_table(s, Path::new("")) {
-            flatten("", &toml::Value::Table(t), &mut m);
-        }
-        m
-    };
-    let (fa, fb) = (flat(a), flat(b));
-    let keys: std::collections::BTreeSet<&String> = fa.keys().chain(fb.keys()).collect();
-    let none = "(absent)".to_string();
-    keys.into_iter()
-        .filter(|k| fa.get(*k) != fb.get(*k))
-        .take(limit)
-        .map(|k| {
-            format!(
-                "{k}: {} → {}",
-                fa.get(k).unwrap_or(&none),
-                fb.get(k).unwrap_or(&none)
-            )
-        })
-        .collect()
 }
 
 /// The overrides `neus-aug reconstruct` would apply for `spec`'s command line (see
@@ -292,7 +229,7 @@ impl StudyPlan {
             path: path.clone(),
             message: e.to_string(),
         })?;
-        if plan.format != PLAN_FORMAT {
+        if !(1..=PLAN_FORMAT).contains(&plan.format) {
             return Err(StudyError::Folder {
                 dir: dir.into(),
                 problem: format!(
@@ -346,8 +283,10 @@ impl StudyPlan {
                 ids_b.len()
             ));
         }
+        // A format-1 plan's hashes were of the text, which this program writes otherwise.
+        let comparable = self.format == other.format;
         for (x, y) in self.runs.iter().zip(&other.runs) {
-            if x.id == y.id && x.config_hash != y.config_hash {
+            if comparable && x.id == y.id && x.config_hash != y.config_hash {
                 d.push(format!(
                     "run {}: resolved configuration {} → {} (a different base config or program version)",
                     x.id, x.config_hash, y.config_hash
@@ -377,10 +316,17 @@ pub fn run_state(
     dir: &Path,
     spec: &RunSpec,
     planned_toml: Option<&str>,
+    records: &BTreeMap<String, store::StoredRun>,
 ) -> Result<RunState, StudyError> {
     let rd = run_dir(dir, &spec.id);
     let cfg_path = rd.join("config.toml");
     let metrics = rd.join("metrics.json").is_file();
+    if !cfg_path.is_file() && !metrics {
+        // A run finished elsewhere (or whose folder was cleared) that left its record.
+        if store::planned_record(records, dir, &spec.id, &spec.config_hash)?.is_some() {
+            return Ok(RunState::Done);
+        }
+    }
     if !cfg_path.is_file() {
         if metrics || rd.join("checkpoint.safetensors").is_file() {
             return Err(StudyError::RunMismatch {
@@ -427,6 +373,9 @@ pub fn open_folder(
     if plan_path.is_file() {
         let stored = StudyPlan::load(dir)?;
         let diff = stored.differences(plan, 12);
+        if diff.is_empty() && stored.format != plan.format {
+            write_atomic(&plan_path, plan.to_toml().as_bytes())?;
+        }
         if !diff.is_empty() {
             return Err(StudyError::PlanMismatch {
                 dir: dir.into(),
@@ -453,10 +402,12 @@ pub fn open_folder(
         }
         write_atomic(&plan_path, plan.to_toml().as_bytes())?;
     }
+    sync_records(dir, plan)?;
+    let records = store::read(dir)?;
     let mut states = Vec::with_capacity(plan.runs.len());
     let mut errors = Vec::new();
     for (spec, cfg) in plan.runs.iter().zip(cfgs) {
-        match run_state(dir, spec, Some(&cfg.to_toml())) {
+        match run_state(dir, spec, Some(&cfg.to_toml()), &records) {
             Ok(s) => states.push(s),
             Err(e) => errors.push(e),
         }
@@ -488,6 +439,49 @@ pub fn is_single_condition(plan: &StudyPlan) -> bool {
 /// Whether the plan is a pareto sweep.
 pub fn is_pareto(plan: &StudyPlan) -> bool {
     plan.options.grid == Grid::Pareto
+}
+
+/// Adds (or replaces) the record of every planned run whose folder holds a finished run, then
+/// writes the file in the plan's order. Returns how many records the file holds.
+pub fn sync_records(dir: &Path, plan: &StudyPlan) -> Result<usize, StudyError> {
+    let mut records = store::read(dir)?;
+    let before = records.clone();
+    for spec in &plan.runs {
+        let rd = run_dir(dir, &spec.id);
+        let (c, m) = (rd.join("config.toml"), rd.join("metrics.json"));
+        if !(c.is_file() && m.is_file()) {
+            continue;
+        }
+        let config = std::fs::read_to_string(&c).map_err(io_err(&c))?;
+        let text = std::fs::read_to_string(&m).map_err(io_err(&m))?;
+        let metrics: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| StudyError::Parse {
+                path: m.clone(),
+                message: e.to_string(),
+            })?;
+        let id = spec.id.clone();
+        records.insert(
+            id.clone(),
+            store::StoredRun {
+                id,
+                config,
+                metrics,
+            },
+        );
+    }
+    if records == before {
+        return Ok(records.len());
+    }
+    let mut text = String::new();
+    let order = plan.runs.iter().map(|s| &s.id);
+    for id in order.chain(records.keys().filter(|k| plan.run(k).is_none())) {
+        if let Some(r) = records.get(id) {
+            text.push_str(&serde_json::to_string(r).expect("records serialise"));
+            text.push('\n');
+        }
+    }
+    write_atomic(&dir.join(store::RECORDS_FILE), text.as_bytes())?;
+    Ok(records.len())
 }
 
 #[cfg(test)]

@@ -157,6 +157,7 @@ pub fn execute(
                         format!("chamfer_sum {:.4} mm", c.chamfer_sum)
                     });
                 log(dir, &format!("done {} {cs} {secs:.1}s", spec.id))?;
+                super::plan::sync_records(dir, plan)?;
                 eprintln!("{tag}: done in {secs:.0} s, {cs}");
                 summary.ran.push(spec.id.clone());
                 done_now += 1;

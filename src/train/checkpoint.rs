@@ -3,8 +3,8 @@
 //!
 //! Tensors (all little-endian):
 //! - `params.<group>`: f32, the group's shape (`hash_grid`, `sdf_mlp`, `color_mlp`, `variance`,
-//!   `appearance`, `bg_density`, `bg_color` with a learned background, `color_grid` with a
-//!   colour grid; see [`crate::field::ParamLayout`]);
+//!   `appearance`, `bg_density`, `bg_color` with a learned background; see
+//!   [`crate::field::ParamLayout`]);
 //! - `adam_m.<group>`, `adam_v.<group>`: f32, AdamW's moments, same shapes;
 //! - `occupancy.occ`: f32 `[r, r, r]`, `occupancy.binary`: u8 `[r, r, r]`;
 //! - with error-map sampling (`train.error_map`), `error_map.err` and `error_map.cdf`: f32
@@ -153,24 +153,29 @@ pub fn save(
     })
 }
 
+/// The metadata of a neus-aug checkpoint (`format`, `config_hash`, `config`, ...), reading only
+/// the header; `None` for a missing or foreign file.
+pub fn metadata(path: &Path) -> Option<std::collections::HashMap<String, String>> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path).ok()?;
+    let mut len = [0u8; 8];
+    f.read_exact(&mut len).ok()?;
+    let n = u64::from_le_bytes(len);
+    if n > 100 << 20 {
+        return None;
+    }
+    let mut header = vec![0u8; n as usize];
+    f.read_exact(&mut header).ok()?;
+    let v: serde_json::Value = serde_json::from_slice(&header).ok()?;
+    let meta: std::collections::HashMap<String, String> =
+        serde_json::from_value(v.get("__metadata__")?.clone()).ok()?;
+    (meta.get("format").map(String::as_str) == Some(FORMAT)).then_some(meta)
+}
+
 /// Whether `path` is a neus-aug checkpoint: a safetensors file whose metadata `format` is
 /// [`FORMAT`]. Reads only the header; never fails (a missing or foreign file is `false`).
 pub fn is_checkpoint(path: &Path) -> bool {
-    use std::io::Read;
-    let read = || -> Option<bool> {
-        let mut f = std::fs::File::open(path).ok()?;
-        let mut len = [0u8; 8];
-        f.read_exact(&mut len).ok()?;
-        let n = u64::from_le_bytes(len);
-        if n > 100 << 20 {
-            return None;
-        }
-        let mut header = vec![0u8; n as usize];
-        f.read_exact(&mut header).ok()?;
-        let v: serde_json::Value = serde_json::from_slice(&header).ok()?;
-        Some(v["__metadata__"]["format"].as_str() == Some(FORMAT))
-    };
-    read().unwrap_or(false)
+    metadata(path).is_some()
 }
 
 /// Checks that every value of tensor `name` is finite (and, for `non_negative`, such as Adam's

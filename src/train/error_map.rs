@@ -86,7 +86,7 @@ impl Default for ErrorMapConfig {
 }
 
 impl ErrorMapConfig {
-    /// Whether this is the default (the section is then left out of the config text).
+    /// Whether every field is at its default (the map off).
     pub fn is_default(&self) -> bool {
         *self == Self::default()
     }

@@ -41,8 +41,9 @@
 //! torus's hole, the gaps of a frame) are open from the start.
 
 use super::adam::{AdamW, AdamWConfig, OptimError};
-use crate::mesh::clean::{dilate_mask, pixel_of};
 use crate::render::NeusModel;
+use crate::scene::camera::pixel_of;
+use crate::scene::image::dilate_mask;
 use crate::scene::{Camera, GrayImage};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
@@ -73,8 +74,7 @@ pub enum InitKind {
     SphereOrHull,
 }
 
-/// The SDF initialisation (`[train.init]`). Absent from a config's text while it is the default,
-/// so configs and training hashes of runs without it are unchanged.
+/// The SDF initialisation (`[train.init]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct InitConfig {
@@ -87,38 +87,10 @@ pub struct InitConfig {
     pub points: usize,
     /// AdamW learning rate of the fit (1e-2, the training's base rate; no weight decay).
     pub lr: f32,
-    /// Standard deviation (voxels) of a Gaussian blur of the hull's distance before the fit (0:
-    /// none). The ridges where silhouette cones meet are the hull's, not the object's.
-    pub smooth_voxels: f32,
     /// `kind = "sphere_or_hull"`: the hull start is taken when the visual hull covers less than
     /// this share of the init sphere's volume ([`sphere_cover`]; 0.5: the masks carve away
     /// most of the sphere).
     pub sphere_cover_min: f64,
-    /// Photo-consistent carving of the visual hull before the start is chosen and fitted
-    /// ([`super::photo_hull`]): a voxel that `photo_min_views` views see with an RGB spread
-    /// above this is carved (RGB in `[0, 1]`). 0: off (the masks' hull as it is). The three
-    /// photo fields are left out of the config text at their defaults, so the training hashes of
-    /// runs without the carve are those of the commits before it.
-    #[serde(skip_serializing_if = "is_off")]
-    pub photo_tau: f32,
-    /// Views that must see a voxel before the photo carve judges it (3).
-    #[serde(skip_serializing_if = "is_default_min_views")]
-    pub photo_min_views: usize,
-    /// Photo-carve passes at most (256; each peels at most one voxel layer along every ray).
-    #[serde(skip_serializing_if = "is_default_max_iterations")]
-    pub photo_max_iterations: usize,
-}
-
-fn is_off(tau: &f32) -> bool {
-    *tau == 0.0
-}
-
-fn is_default_min_views(n: &usize) -> bool {
-    *n == InitConfig::default().photo_min_views
-}
-
-fn is_default_max_iterations(n: &usize) -> bool {
-    *n == InitConfig::default().photo_max_iterations
 }
 
 impl Default for InitConfig {
@@ -129,21 +101,12 @@ impl Default for InitConfig {
             steps: 400,
             points: 8192,
             lr: 1e-2,
-            smooth_voxels: 0.0,
             sphere_cover_min: 0.5,
-            photo_tau: 0.0,
-            photo_min_views: 3,
-            photo_max_iterations: 256,
         }
     }
 }
 
 impl InitConfig {
-    /// Whether this is the default (the section is then left out of the config text).
-    pub fn is_default(&self) -> bool {
-        *self == Self::default()
-    }
-
     /// The first invalid field, as `(key, value, why)`.
     pub fn invalid(&self) -> Option<(&'static str, String, &'static str)> {
         if !(8..=512).contains(&self.resolution) {
@@ -167,34 +130,6 @@ impl InitConfig {
                 "train.init.sphere_cover_min",
                 self.sphere_cover_min.to_string(),
                 "must be in [0, 1]",
-            ));
-        }
-        if !(0.0..=1.0).contains(&self.photo_tau) {
-            return Some((
-                "train.init.photo_tau",
-                self.photo_tau.to_string(),
-                "must be in [0, 1] (0: off)",
-            ));
-        }
-        if self.photo_min_views < 2 {
-            return Some((
-                "train.init.photo_min_views",
-                self.photo_min_views.to_string(),
-                "must be at least 2",
-            ));
-        }
-        if self.photo_max_iterations == 0 {
-            return Some((
-                "train.init.photo_max_iterations",
-                "0".into(),
-                "must be at least 1",
-            ));
-        }
-        if !(0.0..=8.0).contains(&self.smooth_voxels) {
-            return Some((
-                "train.init.smooth_voxels",
-                self.smooth_voxels.to_string(),
-                "must be in [0, 8]",
             ));
         }
         None
@@ -426,36 +361,6 @@ impl HullSdf {
         })
     }
 
-    /// The values blurred by a separable Gaussian of standard deviation `sigma` voxels (kernel
-    /// radius `⌈3σ⌉`, edges clamped); `sigma = 0` returns a copy.
-    pub fn smoothed(&self, sigma: f32) -> Self {
-        if sigma <= 0.0 {
-            return self.clone();
-        }
-        let n = self.res as isize;
-        let rad = (3.0 * sigma).ceil() as isize;
-        let w: Vec<f32> = (-rad..=rad)
-            .map(|k| (-0.5 * (k as f32 / sigma).powi(2)).exp())
-            .collect();
-        let sum: f32 = w.iter().sum();
-        let mut values = self.values.clone();
-        along_every_axis(&mut values, self.res, |line, out| {
-            for (t, o) in out.iter_mut().enumerate() {
-                let mut acc = 0f32;
-                for (k, wk) in w.iter().enumerate() {
-                    let u = (t as isize + k as isize - rad).clamp(0, n - 1);
-                    acc += wk * line[u as usize];
-                }
-                *o = acc / sum;
-            }
-        });
-        Self {
-            res: self.res,
-            radius: self.radius,
-            values,
-        }
-    }
-
     /// Voxel edge length (normalised units).
     pub fn voxel(&self) -> f32 {
         2.0 * self.radius / self.res as f32
@@ -638,35 +543,6 @@ mod tests {
         }
         .invalid()
         .is_some_and(|(k, _, _)| k == "train.init.points"));
-    }
-
-    #[test]
-    fn smoothing_keeps_a_plane_and_flattens_a_ridge() {
-        let (res, r) = (24usize, 1.0f32);
-        let h = 2.0 * r / res as f32;
-        let c = |i: usize| -r + (i as f32 + 0.5) * h;
-        let grid = |f: &dyn Fn(f32, f32, f32) -> f32| HullSdf {
-            res,
-            radius: r,
-            values: (0..res * res * res)
-                .map(|idx| f(c(idx % res), c((idx / res) % res), c(idx / (res * res))))
-                .collect(),
-        };
-        // A plane's distance is linear: unchanged away from the edges.
-        let plane = grid(&|x, _, _| x - 0.1);
-        let s = plane.smoothed(1.5);
-        for x in [[0.0f32, 0.1, -0.2], [-0.3, 0.0, 0.3]] {
-            assert!((s.at(x) - plane.at(x)).abs() < 1e-4, "{x:?}");
-        }
-        assert_eq!(plane.smoothed(0.0).values, plane.values);
-        // The ridge of a square's distance (max(|x|, |y|) − 0.5) along its diagonal: a convex
-        // kink, which a blur of σ voxels raises by about 0.56·σ·h (E max of two Gaussians).
-        let wedge = grid(&|x, y, _| x.abs().max(y.abs()) - 0.5);
-        let s = wedge.smoothed(1.5);
-        let corner = [0.5f32, 0.5, 0.0];
-        let rise = s.at(corner) - wedge.at(corner);
-        assert!(rise > 0.3 * h && rise < 1.5 * h, "{rise} against h = {h}");
-        assert!(s.values.iter().all(|v| v.is_finite()));
     }
 
     #[test]

@@ -1,9 +1,9 @@
 //! Training: the loss ([`loss`]: colour, mask and the regularisers' weights, behind the
 //! renderer's `RayLoss` interface), the optimiser ([`adam`]: AdamW with per-group learning rates
 //! and a NaN guard), the learning-rate schedule, training rays, checkpoints, the training loop
-//! (with the dynamic ray count and error-map sampling, [`error_map`]), the opt-in priors
-//! ([`unseen`], [`multiview`], [`depth`] with its automatic switch [`depth_auto`]) and image
-//! metrics.
+//! (with the dynamic ray count and error-map sampling, [`error_map`]), the depth prior
+//! ([`depth`], on the stereo of `crate::mvs`, with its automatic switch [`depth_auto`]), the
+//! visual-hull start ([`hull`]) and image metrics.
 
 pub mod adam;
 pub mod checkpoint;
@@ -14,11 +14,8 @@ pub mod error_map;
 pub mod hull;
 pub mod loss;
 pub mod metrics;
-pub mod multiview;
-pub mod photo_hull;
 pub mod schedule;
 pub mod trainer;
-pub mod unseen;
 
 pub use adam::{AdamW, AdamWConfig, OptimError};
 pub use checkpoint::TrainState;

@@ -9,9 +9,7 @@ use super::depth::{DepthConfig, DepthPrior, DepthStep};
 use super::error_map::{ErrorMap, ErrorMapConfig};
 use super::hull::InitConfig;
 use super::loss::{StepOutput, Targets, TrainStep};
-use super::multiview::{MultiViewConfig, MultiViewPrior, MultiViewStep};
 use super::schedule::LrSchedule;
-use super::unseen::{UnseenConfig, UnseenPrior, UnseenStep};
 use crate::render::model::{ModelError, NeusModel, RayBatch};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
@@ -33,22 +31,12 @@ pub struct TrainConfig {
     /// Consecutive steps the NaN guard may skip before the run stops as diverged.
     pub max_consecutive_skips: u32,
     /// How the SDF starts (`[train.init]`; the sphere init by default, see [`super::hull`]).
-    #[serde(skip_serializing_if = "InitConfig::is_default")]
     pub init: InitConfig,
-    /// The unseen-space prior (`[train.unseen]`; off by default, see [`super::unseen`]).
-    #[serde(skip_serializing_if = "UnseenConfig::is_default")]
-    pub unseen: UnseenConfig,
     /// Error-map ray sampling (`[train.error_map]`; off by default, half the rays in the `fast`
     /// preset; see [`super::error_map`]).
-    #[serde(skip_serializing_if = "ErrorMapConfig::is_default")]
     pub error_map: ErrorMapConfig,
-    /// Multi-view patch consistency (`[train.multiview]`; off by default, see
-    /// [`super::multiview`]).
-    #[serde(skip_serializing_if = "MultiViewConfig::is_default")]
-    pub multiview: MultiViewConfig,
-    /// Depth prior from multi-view stereo (`[train.depth]`; off by default, see
-    /// [`super::depth`]).
-    #[serde(skip_serializing_if = "DepthConfig::is_default")]
+    /// Depth prior from multi-view stereo (`[train.depth]`; off unless asked for or switched
+    /// on, see [`super::depth`]).
     pub depth: DepthConfig,
 }
 
@@ -61,9 +49,7 @@ impl Default for TrainConfig {
             checkpoint_every: 1000,
             max_consecutive_skips: 20,
             init: InitConfig::default(),
-            unseen: UnseenConfig::default(),
             error_map: ErrorMapConfig::default(),
-            multiview: MultiViewConfig::default(),
             depth: DepthConfig::default(),
         }
     }
@@ -102,10 +88,6 @@ pub struct StepReport {
     pub skipped: Option<String>,
     /// Whether the occupancy grid was updated before the step.
     pub occupancy_updated: bool,
-    /// What the unseen-space prior did (`None` when off or before its start step).
-    pub unseen: Option<UnseenStep>,
-    /// What the multi-view prior did (`None` when off or before its start step).
-    pub multiview: Option<MultiViewStep>,
     /// What the depth prior did (`None` when off or outside its steps).
     pub depth: Option<DepthStep>,
 }
@@ -117,7 +99,6 @@ enum Stream {
     Augment = 2,
     Jitter = 3,
     Occupancy = 4,
-    Unseen = 5,
 }
 
 /// A 64-bit seed for `(seed, step, stream)` (SplitMix64 finaliser over a combined key; Steele et
@@ -142,8 +123,6 @@ pub struct Trainer<'a> {
     grads: Vec<f32>,
     batch: Batch,
     consecutive_skips: u32,
-    unseen: Option<UnseenPrior>,
-    multiview: Option<MultiViewPrior>,
     depth: Option<DepthPrior>,
     /// `[rays]` per-ray colour errors of the step (error-map sampling only).
     ray_errors: Vec<AtomicU32>,
@@ -167,25 +146,9 @@ impl<'a> Trainer<'a> {
             grads: vec![0.0; model.n_params()],
             batch: Batch::default(),
             consecutive_skips: 0,
-            unseen: None,
-            multiview: None,
             depth: None,
             ray_errors: Vec::new(),
         }
-    }
-
-    /// Adds the unseen-space prior (`config.unseen`, [`super::unseen`]) to every step from its
-    /// start step on.
-    pub fn with_unseen_prior(mut self, prior: UnseenPrior) -> Self {
-        self.unseen = Some(prior);
-        self
-    }
-
-    /// Adds the multi-view patch consistency (`config.multiview`, [`super::multiview`]) to every
-    /// step from its start step on.
-    pub fn with_multiview_prior(mut self, prior: MultiViewPrior) -> Self {
-        self.multiview = Some(prior);
-        self
     }
 
     /// Adds the depth prior (`config.depth`, [`super::depth`]) to every step from its start step
@@ -275,33 +238,11 @@ impl<'a> Trainer<'a> {
         if let (Some(m), Some(errors)) = (state.error_map.as_mut(), sink) {
             m.record(&b.views, &b.pixels, errors);
         }
-        let unseen = self.unseen.as_mut().and_then(|u| {
-            u.add_grad(
-                model,
-                &state.params,
-                step,
-                sched.active_levels,
-                step_seed(self.seed, step, Stream::Unseen),
-                &mut self.grads,
-            )
-        });
-        let multiview = self.multiview.as_ref().and_then(|m| {
-            m.add_grad(
-                model,
-                &state.params,
-                step,
-                self.config.iterations,
-                sched.active_levels,
-                &self.batch,
-                &mut self.grads,
-            )
-        });
         let depth = self.depth.as_ref().and_then(|d| {
             d.add_grad(
                 model,
                 &state.params,
                 step,
-                self.config.iterations,
                 sched.active_levels,
                 &self.batch,
                 &mut self.grads,
@@ -348,8 +289,6 @@ impl<'a> Trainer<'a> {
             lr_factor,
             skipped,
             occupancy_updated,
-            unseen,
-            multiview,
             depth,
         })
     }

@@ -34,24 +34,11 @@ use super::lanes::LaneBlock;
 use super::Real;
 use rand::Rng;
 
+pub(crate) mod level;
 mod stencil;
 
-pub use stencil::{fd_point, fd_points, stencil_rows, Sides};
-
-/// One resolution level of the grid.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Level {
-    /// `base·b^l − 1`.
-    pub scale: f64,
-    /// `ceil(scale) + 1` (dense index stride).
-    pub resolution: u32,
-    /// First entry of this level in the table.
-    pub offset: usize,
-    /// Entries of this level.
-    pub size: u32,
-    /// Hashed (true) or dense (false).
-    pub hashed: bool,
-}
+pub use level::{Level, Sides, PRIMES};
+pub use stencil::{fd_point, fd_points, stencil_rows};
 
 /// The hash grid's geometry (no parameters: those live in the flat buffer).
 #[derive(Debug, Clone, PartialEq)]
@@ -68,10 +55,6 @@ pub struct HashGrid {
     /// Level-parallel blocks of the `F = 2` fast path ([`super::lanes`]).
     lanes: Option<Vec<LaneBlock>>,
 }
-
-/// Spatial-hash primes per axis (tcnn `grid.h`; Müller et al. 2022 eq. 4): a hashed corner's
-/// entry is `(x·P0 ^ y·P1 ^ z·P2) mod T`, wrapping `u32`. Shared with [`super::lanes`].
-pub(super) const PRIMES: [u32; 3] = [1, 2_654_435_761, 805_459_861];
 
 #[inline(always)]
 fn corner_of(cell: [u32; 3], c: usize) -> [u32; 3] {

@@ -6,7 +6,8 @@
 // Numeric kernels index several parallel arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
 
-use super::{corner_of, corner_weights, HashGrid, PRIMES};
+use super::level::PRIMES;
+use super::{corner_of, corner_weights, HashGrid};
 use crate::field::Real;
 
 /// Point `p` of a finite-difference stencil: 0 = the centre, `1 + 2a` / `2 + 2a` = the centre
@@ -32,28 +33,6 @@ pub fn stencil_rows(centre: usize, first_tap: usize, d: usize) -> [usize; 7] {
             (first_tap + p - 1) * d
         }
     })
-}
-
-/// Which taps of a finite-difference stencil a sample uses in the batched paths
-/// ([`HashGrid::encode_fd_batch`]): both (a central difference) or the `+ε` or the `−ε` ones
-/// alone (a one-sided difference). The taps of an unused side must sit on the centre.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Sides {
-    Both,
-    Plus,
-    Minus,
-}
-
-impl Sides {
-    /// The tap slots in use (`0` = `+ε`, `1` = `−ε`).
-    #[inline(always)]
-    pub fn slots(self) -> std::ops::Range<usize> {
-        match self {
-            Sides::Both => 0..2,
-            Sides::Plus => 0..1,
-            Sides::Minus => 1..2,
-        }
-    }
 }
 
 /// The seven points of a finite-difference stencil (see [`fd_point`]).

@@ -30,7 +30,7 @@
 // Numeric kernels index several parallel arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
 
-use super::hashgrid::{Level, Sides, PRIMES};
+use super::hashgrid::level::{Level, Sides, PRIMES};
 use super::Real;
 
 mod batch;

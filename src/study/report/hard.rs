@@ -9,8 +9,8 @@
 //! run.
 
 use super::super::grid::arm_title;
+use super::format::{fmt_opt, intro, md_table, paired_section};
 use super::layout::{m_chamfer, m_psnr, Layout, Metric, Row};
-use super::markdown::{fmt_opt, intro, md_table, paired_section};
 use super::records::{GeometryRecord, RunRecord};
 use super::DiffSummary;
 use crate::augment::AugMode;

@@ -18,6 +18,7 @@
 //! `csv` the CSV files; this module writes the files and the plots.
 
 mod csv;
+mod format;
 mod hard;
 mod layout;
 mod markdown;
@@ -105,6 +106,7 @@ pub fn collect_with_reference(
     to: &Path,
     reference: Option<&plot::ReferenceFront>,
 ) -> Result<CollectSummary, StudyError> {
+    super::plan::sync_records(dir, &super::plan::StudyPlan::load(dir)?)?;
     let (plan, records) = load_records(dir)?;
     if let (Some(r), false) = (reference, plan::is_pareto(&plan)) {
         return Err(StudyError::Option {

@@ -3,8 +3,8 @@
 
 use super::super::grid::{arm_name, arm_title};
 use super::super::stats::{self, Ci};
+use super::format::{fmt_ci, fmt_signed, md_table};
 use super::layout::{all_values, m_chamfer, m_train, Layout, Row};
-use super::markdown::{fmt_ci, fmt_signed, md_table};
 use crate::augment::AugMode;
 use std::fmt::Write as _;
 

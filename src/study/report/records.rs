@@ -5,6 +5,7 @@ use super::super::grid::{arm_name, scene_label, Grid};
 use super::super::plan::{
     self, run_dir, run_state, RunSpec, RunState, StudyPlan, BASE_CONFIG_FILE,
 };
+use super::super::store::{planned_record, StoredRun, RECORDS_FILE};
 use super::super::{io_err, StudyError};
 use crate::reconstruct::Metrics;
 use serde::Serialize;
@@ -140,9 +141,10 @@ pub fn load_records(dir: &Path) -> Result<(StudyPlan, Vec<RunRecord>), StudyErro
             });
         }
     }
+    let stored = super::super::store::read(dir)?;
     let mut records: Vec<RunRecord> = Vec::new();
     for spec in &plan.runs {
-        let state = match run_state(dir, spec, None) {
+        let state = match run_state(dir, spec, None, &stored) {
             Ok(s) => s,
             Err(StudyError::RunMismatch { .. }) => {
                 // Name the differing keys when the planned configuration can be rebuilt.
@@ -150,14 +152,14 @@ pub fn load_records(dir: &Path) -> Result<(StudyPlan, Vec<RunRecord>), StudyErro
                     .ok()
                     .filter(|c| plan::config_hash(c) == spec.config_hash)
                     .map(|c| c.to_toml());
-                run_state(dir, spec, planned.as_deref())?
+                run_state(dir, spec, planned.as_deref(), &stored)?
             }
             Err(e) => return Err(e),
         };
         if state != RunState::Done {
             continue;
         }
-        records.push(read_record(dir, spec, plan.options.grid)?);
+        records.push(read_record(dir, spec, plan.options.grid, &stored)?);
     }
     // A reused training costs the source run's training time.
     let train_of: std::collections::BTreeMap<String, f64> = records
@@ -180,14 +182,40 @@ pub fn load_records(dir: &Path) -> Result<(StudyPlan, Vec<RunRecord>), StudyErro
     Ok((plan, records))
 }
 
-fn read_record(dir: &Path, spec: &RunSpec, grid: Grid) -> Result<RunRecord, StudyError> {
-    let path = run_dir(dir, &spec.id).join("metrics.json");
-    let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
-    let m: Metrics = serde_json::from_str(&text).map_err(|e| StudyError::Parse {
-        path: path.clone(),
-        message: e.to_string(),
-    })?;
-    if m.config_hash != spec.training_hash {
+/// The run's record: its folder's `metrics.json`, else its stored record (`records.jsonl`).
+fn read_record(
+    dir: &Path,
+    spec: &RunSpec,
+    grid: Grid,
+    stored: &std::collections::BTreeMap<String, StoredRun>,
+) -> Result<RunRecord, StudyError> {
+    let rd = run_dir(dir, &spec.id);
+    let path = rd.join("metrics.json");
+    let (m, config): (Metrics, String) = if path.is_file() {
+        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        let m = serde_json::from_str(&text).map_err(|e| StudyError::Parse {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        let c = rd.join("config.toml");
+        (m, std::fs::read_to_string(&c).map_err(io_err(&c))?)
+    } else {
+        let r = planned_record(stored, dir, &spec.id, &spec.config_hash)?.ok_or_else(|| {
+            StudyError::Folder {
+                dir: dir.into(),
+                problem: format!("run {} has neither a folder nor a record", spec.id),
+            }
+        })?;
+        let m = serde_json::from_value(r.metrics.clone()).map_err(|e| StudyError::Parse {
+            path: dir.join(RECORDS_FILE),
+            message: format!("{}: {e}", spec.id),
+        })?;
+        (m, r.config.clone())
+    };
+    // A configuration written before the schema key hashed its training otherwise; its
+    // configuration was checked against the plan above, key by key.
+    let legacy = !config.lines().any(|l| l.starts_with("schema ="));
+    if m.config_hash != spec.training_hash && !legacy {
         return Err(StudyError::RunMismatch {
             path: run_dir(dir, &spec.id),
             problem: format!(

@@ -26,7 +26,8 @@
 //! its cost is below `max_cost`. The random numbers come from a generator seeded by the view's
 //! index, so a scene gives the same depth maps at every run.
 
-use super::{top_k_mean, MvsConfig, View};
+use super::sweep::top_k_mean;
+use super::{MvsConfig, View};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;

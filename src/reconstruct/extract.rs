@@ -1,0 +1,189 @@
+//! Stages 4 and 5, *extract* and *clean*: two-pass marching cubes on the trained SDF, then the
+//! clean-up of `mesh::clean`, the meshes mapped back to world millimetres through `scale_mat`
+//! and written (`mesh.ply`, and `mesh_closed.ply` / `mesh_raw.ply` when the clean-up changed
+//! them).
+
+use super::prepare::Prepared;
+use super::{io_err, say, ReconstructError, RunConfig};
+use crate::mesh::clean::{clean_mesh, cull_unseen_parts, CleanOptions, CleanReport};
+use crate::mesh::{extract_two_pass, to_world, McOptions, TopologyReport, TriMesh, TwoPassOptions};
+use crate::scene::Camera;
+use crate::train::checkpoint::TrainState;
+use std::path::Path;
+use std::time::Instant;
+
+/// The meshes of a run, in world millimetres, with their topology.
+pub(super) struct Meshes {
+    /// The scored mesh (`mesh.ply`): cleaned, the part the training cameras see.
+    pub mesh: TriMesh,
+    /// The closed cleaned surface it was cut from (`mesh_closed.ply` when they differ).
+    pub closed: TriMesh,
+    /// Faces rule 4 cut from `closed` (0: `mesh` is `closed`).
+    pub unseen_faces: usize,
+    pub clean: Option<CleanReport>,
+    /// Topology of the raw marching-cubes mesh, of `closed` and of `mesh`.
+    pub topo_raw: TopologyReport,
+    pub topo: TopologyReport,
+    pub topo_seen: TopologyReport,
+    pub secs: f64,
+}
+
+/// Stage 4: the raw marching-cubes mesh of the SDF of `state` (normalised frame).
+pub(super) fn extract(
+    cfg: &RunConfig,
+    p: &Prepared,
+    state: &TrainState,
+) -> Result<TriMesh, ReconstructError> {
+    let model = &p.model;
+    let active = model
+        .config
+        .inference_schedule(cfg.train.iterations)
+        .active_levels;
+    let r = model.config.render.radius;
+    let sdf = |pts: &[[f32; 3]]| model.sdf(&state.params, pts, active);
+    let two = extract_two_pass(
+        &sdf,
+        &TwoPassOptions {
+            min: [-r; 3],
+            max: [r; 3],
+            coarse_res: cfg.mesh.coarse_res,
+            fine_res: cfg.mesh.fine_res,
+            pad_fraction: cfg.mesh.pad_fraction,
+            mc: McOptions {
+                close_radius: cfg.mesh.close_radius,
+                ..McOptions::default()
+            },
+        },
+    )?;
+    Ok(two.mesh)
+}
+
+/// Stage 5: the clean-up of `raw` (rules 1–3, then rule 4's cut to what the training cameras
+/// see), in world mm, written to `out`. An empty result is an error that names the cause.
+pub(super) fn clean_and_write(
+    cfg: &RunConfig,
+    p: &Prepared,
+    raw: TriMesh,
+    out: &Path,
+    quiet: bool,
+    t: Instant,
+) -> Result<Meshes, ReconstructError> {
+    let topo_raw = TopologyReport::of(&raw);
+    let cameras: Vec<&Camera> = p.cameras();
+    let (mut closed, mut clean) = if cfg.mesh.clean {
+        let (m, rep) = clean_mesh(
+            &raw,
+            &p.masked_views(),
+            &cameras,
+            &CleanOptions {
+                min_area_share: cfg.mesh.clean_min_area_share,
+                mask_cull: cfg.mesh.clean_mask_cull,
+                dilate_px: cfg.mesh.clean_dilate_px,
+                frustum_cull: cfg.mesh.clean_mask_cull,
+                remove_enclosed: cfg.mesh.clean_enclosed,
+            },
+        );
+        (m, Some(rep))
+    } else {
+        (raw.clone(), None)
+    };
+    // Rule 4 (`mesh::clean`): the scored mesh is the part the training cameras see; the closed
+    // surface it was cut from stays beside it, less its wholly unseen components, and the genus
+    // is measured on that.
+    let (mut mesh, unseen_faces) = match clean.as_mut() {
+        Some(rep) => {
+            let margin = cfg.mesh.clean_visible_margin_mm / p.scene.normalization.scale;
+            let cut = cull_unseen_parts(
+                &closed,
+                &cameras,
+                cfg.mesh.clean_min_visible_views,
+                margin,
+                cfg.mesh.clean_min_area_share,
+            );
+            rep.faces_unseen = cut.faces_unseen;
+            rep.unseen_components_removed = cut.unseen_components_removed;
+            rep.faces_in_unseen_components = cut.faces_in_unseen_components;
+            rep.cut_specks_removed = cut.cut_specks_removed;
+            rep.faces_in_cut_specks = cut.faces_in_cut_specks;
+            rep.components_after -= cut.unseen_components_removed;
+            closed = cut.closed;
+            (cut.seen, cut.faces_unseen)
+        }
+        None => (closed.clone(), 0),
+    };
+    let norm = &p.scene.normalization;
+    to_world(&mut closed, norm);
+    to_world(&mut mesh, norm);
+    let topo = TopologyReport::of(&closed);
+    let topo_seen = if unseen_faces > 0 {
+        TopologyReport::of(&mesh)
+    } else {
+        topo
+    };
+    if let Some(rep) = clean.as_mut() {
+        rep.components_seen = topo_seen.components;
+    }
+    let raw_path = out.join("mesh_raw.ply");
+    if closed.faces.len() != raw.faces.len() || mesh.faces.is_empty() {
+        let mut raw = raw;
+        to_world(&mut raw, norm);
+        dtu_eval::ply::write_mesh(&raw_path, &raw)?;
+    } else if raw_path.is_file() {
+        std::fs::remove_file(&raw_path).map_err(io_err(&raw_path))?;
+    }
+    if mesh.faces.is_empty() {
+        return Err(ReconstructError::EmptyMesh(empty_mesh_cause(
+            &topo_raw,
+            clean.as_ref(),
+            &raw_path,
+        )));
+    }
+    let closed_path = out.join("mesh_closed.ply");
+    if unseen_faces > 0 {
+        dtu_eval::ply::write_mesh(&closed_path, &closed)?;
+    } else if closed_path.is_file() {
+        std::fs::remove_file(&closed_path).map_err(io_err(&closed_path))?;
+    }
+    dtu_eval::ply::write_mesh(&out.join("mesh.ply"), &mesh)?;
+    let secs = t.elapsed().as_secs_f64();
+    say(
+        quiet,
+        format!(
+            "mesh: {} vertices, {} faces in {secs:.1} s",
+            mesh.vertices.len(),
+            mesh.faces.len()
+        ),
+    );
+    Ok(Meshes {
+        mesh,
+        closed,
+        unseen_faces,
+        clean,
+        topo_raw,
+        topo,
+        topo_seen,
+        secs,
+    })
+}
+
+/// Why the scored mesh came out empty, in words.
+fn empty_mesh_cause(raw: &TopologyReport, clean: Option<&CleanReport>, raw_path: &Path) -> String {
+    if raw.faces == 0 {
+        return "the trained SDF never crosses zero inside the region: no surface was recovered \
+                (see renders/ of a run with held-out views, and check that the cameras look at \
+                the object)"
+            .into();
+    }
+    let kept = clean.map_or(0, |c| c.faces_unseen);
+    format!(
+        "marching cubes found {} faces, and the clean-up removed all of them{}; the raw mesh is \
+         in {}",
+        raw.faces,
+        if kept > 0 {
+            " (no face is seen by enough training cameras: mesh.clean_min_visible_views)"
+        } else {
+            " (outside the masks, too small, or enclosed)"
+        },
+        raw_path.display()
+    )
+}

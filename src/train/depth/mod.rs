@@ -1,0 +1,438 @@
+//! The depth prior (`[train.depth]`): a loss that carves the span in front of the stereo's
+//! depth (`crate::mvs`) and pulls the surface to it. Off unless asked for (`weight > 0`) or
+//! switched on part-way through a run by [`super::depth_auto`], which checks whether the field
+//! has closed space the stereo sees through (a cavity's lid).
+//!
+//! **The loss** ([`DepthPrior`]): from `start_step` on, the first `rays` masked rays of each
+//! batch whose pixel has a depth `t_d` find the field's first surface crossing `t*`
+//! ([`surface_hits`]); the span `[t*, t_d − margin]` is held free, points `spacing` apart asked
+//! for `f ≥ min(tau, (t_d − t)/2)` (a hinge: free-space carving), and the point at `t_d` is
+//! pulled to `f = 0` (the sparse-point SDF loss of Geo-NeuS, Fu et al., NeurIPS 2022, §3.2) with
+//! `surface_weight`. `L = weight · mean over the rays of (mean hinge +
+//! surface_weight·|f(x(t_d))|)`: [`carve_loss_grad`], whose gradient a finite-difference test
+//! checks (`tests/field_grad.rs`). Distances are in the normalised frame.
+//!
+//! What it costs: the stereo once, when the prior turns on (a few tens of seconds for 46 views
+//! of 400 × 300 on 2 cores), and a surface search of `rays` rays per step.
+
+mod carve;
+
+pub use carve::{carve_loss_grad, CarvedRay};
+pub(crate) use carve::{masked_rays, sdf_f64, surface_hits};
+
+use super::data::Batch;
+use crate::field::Real;
+use crate::mvs::{DepthMaps, MvsConfig};
+use crate::render::NeusModel;
+use crate::scene::Camera;
+use serde::{Deserialize, Serialize};
+
+/// A ray: origin and unit direction (normalised frame).
+type Line = ([f64; 3], [f64; 3]);
+
+/// Settings of the depth prior (`[train.depth]`); defaults in parentheses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DepthConfig {
+    /// Weight of the loss (0: off, unless `auto` switches it on at `auto.weight`).
+    pub weight: f32,
+    /// Weight of the `|f(x(t_d))|` term against the hinge's (0.5): how hard the surface is
+    /// pulled to the stereo's depth, which is only as good as the stereo there.
+    pub surface_weight: f32,
+    /// First step that applies it (200).
+    pub start_step: u64,
+    /// Rays per step: the first of the batch inside the mask (256).
+    pub rays: usize,
+    /// The SDF the hinge asks for in the free span, normalised units (0.01).
+    pub tau: f32,
+    /// Spacing of the free span's points, normalised units (0.00625).
+    pub spacing: f32,
+    /// The free span stops this far in front of the depth, normalised units (0.0125).
+    pub margin: f32,
+    /// Evenly spaced SDF samples of the surface search along each ray (128).
+    pub march_samples: usize,
+    /// Illinois refinement steps of each bracketed crossing (6).
+    pub refine: usize,
+    /// The stereo.
+    pub mvs: MvsConfig,
+    /// The automatic switch: with `weight` 0, whether a check part-way through the run turns
+    /// the prior on ([`super::depth_auto`]).
+    pub auto: super::depth_auto::DepthAutoConfig,
+}
+
+impl Default for DepthConfig {
+    fn default() -> Self {
+        Self {
+            weight: 0.0,
+            surface_weight: 0.5,
+            start_step: 200,
+            rays: 256,
+            tau: 0.01,
+            spacing: 0.00625,
+            margin: 0.0125,
+            march_samples: 128,
+            refine: 6,
+            mvs: MvsConfig::default(),
+            auto: Default::default(),
+        }
+    }
+}
+
+impl DepthConfig {
+    /// Whether the prior runs at all.
+    pub fn enabled(&self) -> bool {
+        self.weight > 0.0
+    }
+
+    /// Whether it applies at `step`.
+    pub fn active_at(&self, step: u64) -> bool {
+        self.enabled() && step >= self.start_step
+    }
+
+    /// The first invalid field, as `(key, value, why)`.
+    pub fn invalid(&self) -> Option<(String, String, &'static str)> {
+        let pos = |v: f32| v.is_finite() && v > 0.0;
+        let nonneg = |v: f32| v.is_finite() && v >= 0.0;
+        let c = |key, ok, value: &dyn std::fmt::Display, why| (key, ok, value.to_string(), why);
+        let checks = [
+            c("weight", nonneg(self.weight), &self.weight, "must be ≥ 0"),
+            c(
+                "surface_weight",
+                nonneg(self.surface_weight),
+                &self.surface_weight,
+                "must be ≥ 0",
+            ),
+            c("rays", self.rays > 0, &self.rays, "must be at least 1"),
+            c(
+                "tau",
+                pos(self.tau),
+                &self.tau,
+                "must be positive (normalised units)",
+            ),
+            c(
+                "spacing",
+                pos(self.spacing),
+                &self.spacing,
+                "must be positive (normalised units)",
+            ),
+            c(
+                "margin",
+                nonneg(self.margin),
+                &self.margin,
+                "must be ≥ 0 (normalised units)",
+            ),
+            c(
+                "march_samples",
+                self.march_samples >= 2,
+                &self.march_samples,
+                "must be at least 2",
+            ),
+        ];
+        if let Some((key, _, value, why)) = checks.into_iter().find(|c| !c.1) {
+            return Some((format!("train.depth.{key}"), value, why));
+        }
+        if let Some((key, value, why)) = self.mvs.invalid() {
+            return Some((format!("train.depth.mvs.{key}"), value, why));
+        }
+        self.auto
+            .invalid()
+            .map(|(key, value, why)| (key.to_string(), value, why))
+    }
+
+    /// This prior as the automatic switch turns it on after step `check_step`: weight
+    /// `auto.weight`, from the later of `start_step` and `check_step` (the first step after
+    /// the check).
+    pub fn switched_on(&self, check_step: u64) -> Self {
+        Self {
+            weight: self.auto.weight,
+            start_step: self.start_step.max(check_step),
+            ..self.clone()
+        }
+    }
+}
+
+/// What the depth prior did in one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DepthStep {
+    /// Rays looked at (masked, first of the batch).
+    pub rays: usize,
+    /// Of them, rays whose pixel has a depth.
+    pub with_depth: usize,
+    /// Of them, rays with a non-empty free span (the field crosses in front of the depth).
+    pub carved: usize,
+    /// The weighted loss.
+    pub loss: f64,
+}
+
+/// The depth prior during training: the depth maps and the rays' cameras.
+pub struct DepthPrior {
+    cfg: DepthConfig,
+    maps: DepthMaps,
+    cameras: Vec<Camera>,
+}
+
+impl DepthPrior {
+    /// The prior over `cameras` (normalised frame) with depth maps already made.
+    pub fn new(cfg: DepthConfig, cameras: Vec<Camera>, maps: DepthMaps) -> Self {
+        assert_eq!(cameras.len(), maps.t.len(), "one depth map per camera");
+        Self { cfg, maps, cameras }
+    }
+
+    /// The depth maps.
+    pub fn maps(&self) -> &DepthMaps {
+        &self.maps
+    }
+
+    /// The rays' plan: for each of `rays` (`(view, [x, y])`) with a depth, its free span and
+    /// surface point ([`CarvedRay`]; `t` the field's first crossing in the box `[-r, r]³`, or
+    /// `t_d` when it has none). `sdf` evaluates the field; `eps` the normal's difference step.
+    pub fn plan(
+        &self,
+        r: f32,
+        sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
+        eps: f64,
+        rays: &[(usize, [u32; 2])],
+    ) -> (DepthStep, Vec<CarvedRay>) {
+        let cfg = &self.cfg;
+        let with: Vec<(Line, f64)> = rays
+            .iter()
+            .filter_map(|&(v, [x, y])| {
+                let td = self.maps.get(v, x, y)?;
+                let (o, d) = self.cameras[v].ray(x as f64 + 0.5, y as f64 + 0.5);
+                Some(((o.into(), d.into()), td))
+            })
+            .collect();
+        let lines: Vec<Line> = with.iter().map(|w| w.0).collect();
+        let hits = surface_hits(sdf, &lines, r, cfg.march_samples, cfg.refine, eps);
+        let (sp, mg, tau) = (cfg.spacing as f64, cfg.margin as f64, cfg.tau as f64);
+        let plan: Vec<CarvedRay> = with
+            .iter()
+            .zip(&hits)
+            .map(|(&((o, d), td), hit)| {
+                let at = |s: f64| [0, 1, 2].map(|q| o[q] + s * d[q]);
+                let t0 = hit.as_ref().map_or(td, |h| h.t);
+                let mut free = Vec::new();
+                let mut s = t0;
+                while s <= td - mg {
+                    free.push((at(s), tau.min(0.5 * (td - s))));
+                    s += sp;
+                }
+                CarvedRay {
+                    t: t0,
+                    t_b: td,
+                    free,
+                    surface: at(td),
+                }
+            })
+            .collect();
+        let step = DepthStep {
+            rays: rays.len(),
+            with_depth: plan.len(),
+            carved: plan.iter().filter(|c| !c.free.is_empty()).count(),
+            loss: 0.0,
+        };
+        (step, plan)
+    }
+
+    /// The loss on `plan` at the weight `weight` ([`carve_loss_grad`] with
+    /// this prior's surface weight and `tau`), its gradient added into `grads`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn loss_grad<T: Real>(
+        &self,
+        weight: f32,
+        model: &NeusModel,
+        params: &[T],
+        sdf: &dyn Fn(&[[f64; 3]]) -> Vec<f64>,
+        plan: &[CarvedRay],
+        active: usize,
+        grads: &mut [T],
+    ) -> f64 {
+        let sw = self.cfg.surface_weight;
+        carve_loss_grad(weight, sw, model, params, sdf, plan, active, grads)
+    }
+
+    /// One training step's part: `None` before `start_step`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_grad(
+        &self,
+        model: &NeusModel,
+        params: &[f32],
+        step: u64,
+        active: usize,
+        batch: &Batch,
+        grads: &mut [f32],
+    ) -> Option<DepthStep> {
+        if !self.cfg.active_at(step) {
+            return None;
+        }
+        let rays = masked_rays(batch, self.cfg.rays);
+        let sdf = sdf_f64(model, params, active);
+        let eps = model.fd_eps(active);
+        let (mut out, plan) = self.plan(model.config.render.radius, &sdf, eps, &rays);
+        let weight = self.cfg.weight;
+        out.loss = self.loss_grad(weight, model, params, &sdf, &plan, active, grads);
+        Some(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mvs::tests::{plane_t, rig};
+
+    fn plane_prior(cfg: DepthConfig) -> (DepthPrior, Vec<Camera>) {
+        let (cams, _) = rig();
+        let t = cams
+            .iter()
+            .enumerate()
+            .map(|(v, c)| {
+                (0..c.width * c.height)
+                    .map(|k| {
+                        let (x, y) = (k % c.width, k / c.width);
+                        if v == 0 && x == 10 {
+                            f32::NAN
+                        } else {
+                            plane_t(c, x as f64 + 0.5, y as f64 + 0.5) as f32
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let maps = DepthMaps {
+            width: cams.iter().map(|c| c.width as usize).collect(),
+            filled: cams
+                .iter()
+                .map(|c| vec![false; (c.width * c.height) as usize])
+                .collect(),
+            hole_filled: cams
+                .iter()
+                .map(|c| vec![false; (c.width * c.height) as usize])
+                .collect(),
+            t,
+            considered: 0,
+        };
+        (DepthPrior::new(cfg, cams.clone(), maps), cams)
+    }
+
+    #[test]
+    fn the_plan_frees_the_span_in_front_of_the_depth_and_pins_the_surface() {
+        let cfg = DepthConfig {
+            weight: 1.0,
+            ..Default::default()
+        };
+        let (p, cams) = plane_prior(cfg.clone());
+        let rays: Vec<(usize, [u32; 2])> = (0..5)
+            .flat_map(|v| (0..6).map(move |i| (v, [10 + 12 * i, 20 + 8 * i])))
+            .collect();
+        // A false sheet at z = 0.8 in front of the plane z = 0.
+        let sheet = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2] - 0.8).collect::<Vec<_>>();
+        let (out, plan) = p.plan(3.0, &sheet, 1e-5, &rays);
+        assert_eq!(
+            (out.rays, out.with_depth),
+            (30, 29),
+            "view 0's column 10 has no depth"
+        );
+        assert_eq!(out.carved, 29);
+        for c in &plan {
+            assert!(
+                c.surface[2].abs() < 1e-5,
+                "surface point at z {}",
+                c.surface[2]
+            );
+            assert!(c.t < c.t_b, "{c:?}");
+            let first = c.free.first().unwrap().0;
+            assert!(
+                (first[2] - 0.8).abs() < 1e-4,
+                "the span starts on the sheet: {first:?}"
+            );
+            for &(x, tau) in &c.free {
+                assert!(
+                    x[2] > 0.0 && x[2] <= 0.8 + 1e-4,
+                    "freed point at z {}",
+                    x[2]
+                );
+                assert!(tau > 0.0 && tau <= cfg.tau as f64 + 1e-12);
+            }
+            // The last freed point lies at least `margin` in front of the depth.
+            let last = c.free.last().unwrap().0;
+            let o = plan_origin(&cams, &rays, &plan, c);
+            let tl = (0..3).map(|q| (last[q] - o[q]).powi(2)).sum::<f64>().sqrt();
+            assert!(
+                tl <= c.t_b - cfg.margin as f64 + 1e-9,
+                "{tl} against {}",
+                c.t_b
+            );
+        }
+        // The truth: nothing to free, only the surface term.
+        let truth = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2]).collect::<Vec<_>>();
+        let (out, plan) = p.plan(3.0, &truth, 1e-5, &rays);
+        assert_eq!((out.with_depth, out.carved), (29, 0));
+        assert!(plan
+            .iter()
+            .all(|c| c.free.is_empty() && (c.t - c.t_b).abs() < 1e-4));
+    }
+
+    /// The camera centre of the ray behind `c` (every plan entry is one of `rays` with a depth).
+    fn plan_origin(
+        cams: &[Camera],
+        rays: &[(usize, [u32; 2])],
+        plan: &[CarvedRay],
+        c: &CarvedRay,
+    ) -> [f64; 3] {
+        let i = plan.iter().position(|q| std::ptr::eq(q, c)).unwrap();
+        let v = rays
+            .iter()
+            .filter(|r| !(r.0 == 0 && r.1[0] == 10))
+            .nth(i)
+            .unwrap()
+            .0;
+        cams[v].center.into()
+    }
+
+    #[test]
+    fn config_defaults_are_off_and_checks_name_the_key() {
+        let d = DepthConfig::default();
+        assert!(!d.enabled() && !d.active_at(1000));
+        assert!(d.invalid().is_none());
+        let on = DepthConfig {
+            weight: 5.0,
+            ..Default::default()
+        };
+        assert!(!on.active_at(199) && on.active_at(200) && on.active_at(100_000));
+        let bad = |f: &dyn Fn(&mut DepthConfig)| {
+            let mut c = on.clone();
+            f(&mut c);
+            c.invalid().map(|x| x.0)
+        };
+        let key = |k: &str| Some(k.to_string());
+        assert_eq!(bad(&|c| c.weight = f32::NAN), key("train.depth.weight"));
+        assert_eq!(bad(&|c| c.rays = 0), key("train.depth.rays"));
+        assert_eq!(bad(&|c| c.margin = -1.0), key("train.depth.margin"));
+        assert_eq!(bad(&|c| c.mvs.top_k = 5), key("train.depth.mvs.top_k"));
+        assert_eq!(bad(&|c| c.mvs.planes = 1), key("train.depth.mvs.planes"));
+        type Mutate = fn(&mut DepthConfig);
+        let cases: [(Mutate, &str); 12] = [
+            (|c| c.mvs.min_consistent = 9, "min_consistent"),
+            (|c| c.mvs.slant_iters = 17, "slant_iters"),
+            (|c| c.mvs.fuse_radius = 9.0, "fuse_radius"),
+            (|c| c.mvs.fuse_support = 0, "fuse_support"),
+            (|c| c.mvs.hole_radius = 65, "hole_radius"),
+            (|c| c.mvs.hole_jump = 0.0, "hole_jump"),
+            (|c| c.mvs.hole_tol = f32::NAN, "hole_tol"),
+            (|c| c.mvs.hole_refine = 9, "hole_refine"),
+            (|c| c.mvs.hole_grey_tol = -0.1, "hole_grey_tol"),
+            (|c| c.mvs.free_tol = 1.0, "free_tol"),
+            (|c| c.mvs.free_views = 0, "free_views"),
+            (|c| c.mvs.cast_radius = f32::NAN, "cast_radius"),
+        ];
+        for (f, k) in cases {
+            assert_eq!(bad(&f), Some(format!("train.depth.mvs.{k}")));
+        }
+        // TOML: a section with one key keeps every other default.
+        let t: DepthConfig = toml::from_str("weight = 5.0\n[mvs]\nplanes = 64\n").unwrap();
+        assert_eq!(t.mvs.planes, 64);
+        assert_eq!(t.mvs.top_k, 2);
+        assert!(t.enabled());
+        assert!(toml::from_str::<DepthConfig>("wieght = 5.0\n").is_err());
+    }
+}
