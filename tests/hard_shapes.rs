@@ -223,38 +223,34 @@ fn reconstruct_tiny(
 }
 
 /// A run whose SDF never crosses zero (a sphere init far below one marching-cubes cell and no
-/// visual-hull start, one step) finishes with a note instead of failing after training:
-/// `metrics.json` says the mesh is empty and has no Chamfer figure.
+/// visual-hull start, one step) ends with an error that names the cause, and no `metrics.json`:
+/// a folder with nothing to score is not a finished run.
 #[test]
-fn an_empty_mesh_is_reported_not_a_failure() {
+fn an_empty_mesh_is_an_error_naming_the_cause() {
     let tmp = tempfile::tempdir().unwrap();
     let cfg = common::tiny::write_config(
         tmp.path(),
         1,
         "[model.field.sdf]\nsphere_init_radius = 0.001\n",
     );
+    let out = tmp.path().join("run");
     // The sphere init alone: the preset's visual-hull start would give a surface.
-    let (err, m) = reconstruct_tiny(
-        common::tiny::scene(),
-        &cfg,
-        &tmp.path().join("run"),
-        "train.init.kind=\"sphere\"",
-    );
-    assert!(err.contains("the mesh is empty"), "{err}");
-    assert!(m["chamfer"].is_null(), "{m:#}");
-    assert!(m["eval_note"].as_str().unwrap().contains("empty"));
-    assert_eq!(m["mesh"]["faces"].as_u64(), Some(0));
-    // The scene's floor and true genus are still reported; an empty mesh has no genus, so it
-    // does not match the truth, and there is no ratio without a Chamfer figure.
-    assert_eq!(m["gt_genus"].as_i64(), Some(0), "{m:#}");
-    assert_eq!(m["genus_matches"].as_bool(), Some(false), "{m:#}");
-    assert!(m["mesh"]["largest_genus"].is_null(), "{m:#}");
-    assert!(m["floor_mm"].as_f64().unwrap() > 0.0, "{m:#}");
-    assert!(m["ratio_to_floor"].is_null(), "{m:#}");
+    let o = common::tiny::neus_aug()
+        .arg("reconstruct")
+        .arg(common::tiny::scene())
+        .args(["--config", cfg.to_str().unwrap(), "--quiet", "--out"])
+        .arg(&out)
+        .args(["--set", "train.init.kind=\"sphere\""])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(!o.status.success(), "{err}");
     assert!(
-        m["floor_seen"].is_null() && m["ratio_to_floor_seen"].is_null(),
-        "{m:#}"
+        err.contains("the mesh is empty") && err.contains("never crosses zero"),
+        "{err}"
     );
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!out.join("metrics.json").exists());
 }
 
 /// The seen floor is a diagnostic: a scene folder whose `gt_mesh.ply` cannot be read (here, not

@@ -29,7 +29,7 @@ pub(super) fn is_run_folder(out: &Path) -> bool {
     let ckpt = out.join("checkpoint.safetensors");
     let config_ok = std::fs::read_to_string(out.join("config.toml"))
         .ok()
-        .is_some_and(|t| toml::from_str::<RunConfig>(&t).is_ok());
+        .is_some_and(|t| RunConfig::from_saved_toml(&t, "config.toml").is_ok());
     (config_ok && (out.join("metrics.json").is_file() || ckpt.is_file()))
         || checkpoint::is_checkpoint(&ckpt)
 }

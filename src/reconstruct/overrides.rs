@@ -329,7 +329,7 @@ mod tests {
         assert_eq!(at(50).eikonal, 0.0);
         assert_eq!((at(0).mask, at(50).mask), (0.25, 0.25));
         // The written configuration keeps the quadruple.
-        let back: RunConfig = toml::from_str(&c.to_toml()).unwrap();
+        let back = RunConfig::from_saved_toml(&c.to_toml(), "test").unwrap();
         assert_eq!(back.model.loss, c.model.loss);
         let bad = resolve(
             None,

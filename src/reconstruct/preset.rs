@@ -464,7 +464,7 @@ mod tests {
         for p in [Preset::Quick, Preset::Fast, Preset::Default, Preset::Paper] {
             let c = resolve(Some(p), None, &[]).unwrap();
             assert_eq!(c.preset, p);
-            let back: RunConfig = toml::from_str(&c.to_toml()).unwrap();
+            let back = RunConfig::from_saved_toml(&c.to_toml(), "test").unwrap();
             assert_eq!(back, c);
         }
         let paper = Preset::Paper.config();

@@ -267,12 +267,10 @@ mod tests {
         assert_eq!(partial.render, RenderConfig::default());
         let err = toml::from_str::<ModelConfig>("[render]\nradiuss = 2.0\n").unwrap_err();
         assert!(err.to_string().contains("radiuss"), "{err}");
-        // The background section: absent from a default config's text, round-trips when set.
-        assert!(!text.contains("background]"), "{text}");
-        // `fd_central_every` and `fd_one_sided_span` likewise (so configs and hashes from
-        // before them hold).
-        assert!(!text.contains("fd_central_every"), "{text}");
-        assert!(!text.contains("fd_one_sided_span"), "{text}");
+        // Every key is written, at its default too: the background section and the tap layout.
+        assert!(text.contains("[background]"), "{text}");
+        assert!(text.contains("fd_central_every = 1"), "{text}");
+        assert!(text.contains("fd_one_sided_span = 1"), "{text}");
         let mut k = c.clone();
         k.render.fd_central_every = 4;
         k.render.fd_one_sided_span = 2.0;

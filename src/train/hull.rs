@@ -525,10 +525,10 @@ mod tests {
     }
 
     #[test]
-    fn init_section_is_absent_by_default_and_round_trips() {
+    fn init_section_is_written_and_round_trips() {
         use crate::train::TrainConfig;
         let text = toml::to_string(&TrainConfig::default()).unwrap();
-        assert!(!text.contains("init"), "{text}");
+        assert!(text.contains("[init]\nkind = \"sphere\""), "{text}");
         let t: TrainConfig =
             toml::from_str("[init]\nkind = \"visual_hull\"\nsteps = 10\n").unwrap();
         assert_eq!(t.init.kind, InitKind::VisualHull);
