@@ -1,5 +1,5 @@
-//! The DTU Chamfer protocol, stage by stage (DESIGN §4; jzhangbs/DTUeval-python `eval.py`, which
-//! follows DTU's MATLAB evaluation code).
+//! The DTU Chamfer protocol, stage by stage (jzhangbs/DTUeval-python `eval.py`, which follows DTU's
+//! MATLAB evaluation code).
 //!
 //! 1. Sample the mesh ([`crate::sample`]): vertices plus `MeshSupSamp` samples at `density`.
 //! 2. Shuffle (seeded) and greedy-downsample at radius `density` ([`crate::downsample`]).

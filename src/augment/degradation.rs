@@ -1,5 +1,5 @@
-//! Image degradations (the paper's appendix; ../shared/DESIGN.md §6), each with one strength `q`,
-//! applied on `[0, 1]` values and clipped back to `[0, 1]`.
+//! Image degradations (the paper's appendix), each with one strength `q`, applied on `[0, 1]`
+//! values and clipped back to `[0, 1]`.
 
 use super::{normalise_name, range_text, AugmentError};
 use crate::scene::image::RgbImage;
@@ -28,7 +28,7 @@ pub enum DegradationKind {
 }
 
 impl DegradationKind {
-    /// All kinds, in the order of DESIGN §6.
+    /// All kinds, in the order of the paper's appendix.
     pub const ALL: [DegradationKind; 5] = [
         DegradationKind::Gaussian,
         DegradationKind::MotionBlur,
@@ -48,7 +48,7 @@ impl DegradationKind {
         }
     }
 
-    /// The paper's main strength (DESIGN §6): 0.1, 5 px, 10, 0.05, 0.4.
+    /// The paper's main strength (appendix): 0.1, 5 px, 10, 0.05, 0.4.
     pub fn default_q(self) -> f32 {
         match self {
             DegradationKind::Gaussian => 0.1,
@@ -59,7 +59,7 @@ impl DegradationKind {
         }
     }
 
-    /// The paper's milder second strength (DESIGN §6): 0.05, 2.5 px, 100, 0.025, 0.2.
+    /// The paper's milder second strength (appendix): 0.05, 2.5 px, 100, 0.025, 0.2.
     pub fn mild_q(self) -> f32 {
         match self {
             DegradationKind::Gaussian => 0.05,

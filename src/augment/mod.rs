@@ -1,7 +1,7 @@
 //! Colour-only image augmentations (the paper's SIA and DIA), image degradations and reduced data.
 //!
 //! Reference: Pérez et al., "Enhancing Neural Rendering Methods with Image Augmentations", §3
-//! (SIA, DIA, appearance embeddings) and the appendix (degradations); ../shared/DESIGN.md §6.
+//! (SIA, DIA, appearance embeddings) and the appendix (degradations).
 //!
 //! # Which type to pick
 //! - [`Manipulation`]: the five colour manipulations plus the identity, each `M(I, p)` on `[0, 1]`
@@ -80,7 +80,7 @@
 //! train on changes of comparable size and differ only in static versus dynamic sampling.
 //!
 //! # Degradations and reduced data
-//! [`Degradation`] implements DESIGN §6's appendix effects on `[0, 1]` values, then clips. Each is
+//! [`Degradation`] implements the paper's appendix effects on `[0, 1]` values, then clips. Each is
 //! seeded through the caller's RNG; [`degrade_views`] derives one stream per view from a seed so
 //! the result does not depend on the order in which views are processed. [`views_fraction`]
 //! keeps a seeded random subset of views (nested: the 10 % subset lies inside the 25 % one).

@@ -1,5 +1,5 @@
-//! Reduced data (paper §4, "reduced number of training images"; DESIGN §6): a seeded random subset
-//! of the training views.
+//! Reduced data (paper §4, "reduced number of training images"): a seeded random subset of the
+//! training views.
 
 use super::AugmentError;
 use rand::seq::SliceRandom;

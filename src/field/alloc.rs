@@ -5,11 +5,10 @@
 //! - **Alignment.** The tcnn hash puts the `x` and `x+1` corners (and the `x±1` taps) at indices
 //!   that differ only in their low bits; they share a 64-byte cache line only when the table
 //!   starts on a line boundary. glibc returns large blocks (served by `mmap`) 16 bytes past a page
-//!   boundary, which costs about 20% of the hash-grid time (1.28 → 1.02 µs per sample forward,
-//!   one thread).
+//!   boundary, which costs about 20% of the hash-grid forward time.
 //! - **Page size.** Parameters, gradients and optimiser moments are 56 MB each for the default
 //!   network and are read at random: with 4 KB pages nearly every access misses the TLB. 2 MB
-//!   pages gave +8% on the whole training step (462–483k → 504–518k samples/s, quiet machine).
+//!   pages gave about +8% on the whole training step.
 //!
 //! The buffers are plain `Vec<f32>`s the caller owns, so both belong to the allocator. Install
 //! this one in the binary:

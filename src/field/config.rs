@@ -1,8 +1,8 @@
 //! Configuration of the field (hash grid, SDF MLP, colour MLP, appearance input).
 //!
-//! Defaults follow instant-nsr-pl `configs/neus-dtu-wmask.yaml` (../shared/DESIGN.md §5); every
-//! size is configurable because presets shrink them for CPU speed. All structs deserialise from TOML
-//! with unknown keys rejected and missing keys defaulted.
+//! Defaults follow instant-nsr-pl `configs/neus-dtu-wmask.yaml` (the hash grid with tcnn's
+//! semantics); every size is configurable because presets shrink them for CPU speed. All structs
+//! deserialise from TOML with unknown keys rejected and missing keys defaulted.
 
 use serde::{Deserialize, Serialize};
 

@@ -21,20 +21,13 @@
 //! reference every kernel is tested against, on every build ([`gemm_then_with`] runs any kernel
 //! anywhere: they are all portable Rust, only their register shape targets one ISA).
 //!
-//! Measured with `cargo bench --bench field` (`NEUS_AUG_BENCH_MLP_ONLY=1` for this part), one
-//! thread, f32, AMD EPYC Zen 4, the machine under load from other jobs (indicative; the bench
-//! prints every kernel beside `matrixmultiply` in the same run): x86-64-v3 build, panel tiles
-//! 79–113 GFLOP/s (68–97 % of the 8-wide FMA peak) against `matrixmultiply` 46–87 GFLOP/s,
-//! ratio 1.19–2.48 over the nine listed shapes, the wide tiles 54–67 GFLOP/s there (spilling);
-//! native AVX-512 build, wide tiles 111–117 GFLOP/s (96–101 %), panel tiles 80–115,
-//! `matrixmultiply` 47–85, ratio 1.36–2.37. On an Intel Xeon (family 6 model 167, native build,
-//! one thread): wide tiles 106–170 GFLOP/s, 1.23–1.76× `matrixmultiply`, against 0.56–1.20× before
-//! `zmm_tile`. `matrixmultiply` chooses its kernel at run time, so the `x86-64-v3` figures above,
-//! taken on AVX-512 CPUs, compare with its AVX-512 kernel, not the AVX2 one that AVX2-only CPUs
-//! get. On the same Xeon, `x86-64-v3` build, with the crate held to its AVX2 kernel
-//! (`MMTEST_FEATURE=avx,avx2,fma` at build time), the panel tiles with `ymm_panel` reach
-//! 1.16–1.65× the crate, and 0.77–0.83× its AVX-512 kernel on the forward shapes
-//! (`results/speed/intel-2026-11-26-avx2-peer`).
+//! `cargo bench --bench field` (`NEUS_AUG_BENCH_MLP_ONLY=1` for this part) prints every kernel
+//! beside `matrixmultiply` in the same run; on the AMD and Intel CPUs measured, each build's tiles
+//! run at about 1.2–2.5× the crate's kernel for the same instruction set over the MLP shapes, and
+//! the wide tiles spill in an AVX2 build (measured: docs/benchmarks.md). `matrixmultiply` chooses
+//! its kernel at run time, so on an AVX-512 CPU even an `x86-64-v3` build compares with its AVX-512
+//! kernel, not the AVX2 one that AVX2-only CPUs get; `MMTEST_FEATURE=avx,avx2,fma` at build time
+//! holds it to the latter.
 //!
 //! Generic over [`Real`]: the `f64` gradient checks run the same code.
 
@@ -116,11 +109,9 @@ impl Kernel {
 
 /// The `k` chunk of [`Kernel::PanelTiles`]: 64 rows of the weight gradient's operands, `64 × 64`
 /// of `B` (16 KB in `f32`) and `64 × 35` of `A` (9 KB), fit in a 32 KB L1 together, so the
-/// `⌈35/6⌉ × 4` panel passes over a chunk read L1 instead of L2. Measured with
-/// `NEUS_AUG_BENCH_MLP_ONLY=1` on an x86-64-v3 build (Zen 4, one thread, idle, two rounds):
-/// `dW 64 x 35 over 3584 rows` 79.1–79.6 GFLOP/s at 256, 96.6–97.3 at 64 (88.6 at 32, one
-/// round); the SDF layer's whole backward 0.70 → 0.68–0.69 µs per sample
-/// (`results/speed/zen4-2026-11-26-panel-kc`). The sums are bit-identical for any chunk.
+/// `⌈35/6⌉ × 4` panel passes over a chunk read L1 instead of L2: the weight-gradient product
+/// runs about 1.2× faster than with chunks of 256 rows (measured: docs/benchmarks.md). The sums
+/// are bit-identical for any chunk.
 pub const PANEL_KC: usize = 64;
 
 /// The kernel this build uses, chosen from the target features it is compiled for.
@@ -501,13 +492,11 @@ fn tile<
 /// Why not leave it to the compiler as the portable loop does: LLVM's tuning for Intel's AVX-512
 /// cores (Skylake-X to Sapphire Rapids, and what `target-cpu=native` names them) prefers 256-bit
 /// vectors (its `prefer-256-bit` tuning flag), so the portable loop's `6 × 64` tile becomes 48
-/// `ymm` accumulators and spills, with the fused Softplus epilogue on top. Measured with
-/// `NEUS_AUG_BENCH_MLP_ONLY=1` on an Intel Xeon (family 6, native build named `rocketlake`, one
-/// thread): the portable tile ran at 32–49 % of the 512-bit FMA peak, 0.55× `matrixmultiply` on
-/// the `[3584 × 35] → 64` forward; built with the tuning flag off it ran at 48–80 %
-/// (`results/speed/intel-2026-11-26-prefer-256`). Intrinsics are 512 bits wide whatever the
-/// tuning. Zen 4 (`znver4`) has no such preference: there the portable tile already ran at
-/// 96–101 % of the peak (module docs), and the intrinsics ask for the same operations.
+/// `ymm` accumulators and spills, with the fused Softplus epilogue on top: on such a CPU the
+/// portable tile ran at under half the 512-bit FMA peak, slower than `matrixmultiply` (measured:
+/// docs/benchmarks.md). Intrinsics are 512 bits wide whatever the tuning. Zen 4 (`znver4`) has no
+/// such preference: there the portable tile already runs near the peak, and the intrinsics ask
+/// for the same operations.
 ///
 /// The sums are the portable loop's, term for term (one fused multiply-add per term, `k` in
 /// order), so the results are bit-identical to it (tested).
@@ -577,11 +566,8 @@ fn zmm_tile<T: Real, const N: usize, const R: usize>(
 /// done) otherwise. It starts from and ends in `out[r][p0..p0 + 16]`.
 ///
 /// Why not leave it to the compiler: the portable panel loop compiles to slower code on the
-/// forward shapes. Measured with `NEUS_AUG_BENCH_MLP_ONLY=1` on an Intel Xeon (family 6 model
-/// 167, `x86-64-v3` build, one thread, two rounds): `[3584 × 35] → 64` at 83.5–84.2 GFLOP/s with
-/// the portable loop, 90.5–91.7 with this one, `matrixmultiply`'s AVX2 kernel 77.5–78.1; the
-/// other forward shapes gain 5–10 % too (`results/speed/intel-2026-11-26-avx2-peer`). Not
-/// measured on AMD.
+/// forward shapes (5–10 % on an Intel Xeon, `x86-64-v3` build; not measured on AMD; measured:
+/// docs/benchmarks.md).
 ///
 /// The sums are the portable loop's, term for term (one fused multiply-add per term, `k` in
 /// order), so the results are bit-identical to it (tested).

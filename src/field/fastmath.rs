@@ -3,9 +3,8 @@
 //! `f64` standard-library versions as the reference they are tested against. Polynomials are
 //! Chebyshev fits (mpmath `chebyfit`, near-minimax) of the lowest degree that keeps the stated
 //! bounds, evaluated in Estrin form (short dependency chains), and the exponential's range
-//! reduction uses the float-add rounding trick instead of `floor` + conversion. Softplus alone
-//! went from 1.13 to 0.78 ns per value on an x86-64-v3 build and from 0.64 to 0.53 on the native
-//! AVX-512 one (Zen 4, one thread, machine under load).
+//! reduction uses the float-add rounding trick instead of `floor` + conversion. This made Softplus
+//! alone 1.2–1.45× faster (`benches/field.rs`, AVX2 and AVX-512 builds).
 
 /// `a·b + c`, fused where the target has FMA (see [`crate::field::Real::fma`]).
 #[inline(always)]

@@ -9,7 +9,7 @@
 //! The math is generic over [`Real`] (`f32` in the hot paths, `f64` for the finite-difference
 //! checks), so the gradient tests exercise exactly the code that trains.
 //!
-//! Reference facts: `../shared/DESIGN.md` §5, instant-nsr-pl `models/geometry.py`,
+//! Reference facts: instant-nsr-pl `models/geometry.py`,
 //! `models/network_utils.py`, `models/texture.py`, `configs/neus-dtu-wmask.yaml`.
 
 pub mod alloc;

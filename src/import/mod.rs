@@ -1,8 +1,6 @@
-//! Importing posed photographs from other tools into a NeuS scene folder
-//! (../shared/DESIGN.md §10): COLMAP sparse models ([`colmap`]) and instant-ngp / nerfstudio
-//! `transforms.json` files ([`transforms`]); and the reverse, for tests, writing a scene's true
-//! cameras in those formats ([`export`]).
-//!
+//! Importing posed photographs from other tools into a NeuS scene folder: COLMAP sparse models
+//! ([`colmap`]) and instant-ngp / nerfstudio `transforms.json` files ([`transforms`]); and the
+//! reverse, for tests, writing a scene's true cameras in those formats ([`export`]).
 //! Every importer produces [`ImportedView`]s (image file, optional mask file, camera in the
 //! source's world frame, OpenCV axes) and a region of interest ([`Roi`]), then
 //! [`write_imported_scene`] writes the standard layout of [`crate::scene::dtu`]:
@@ -235,9 +233,9 @@ fn trimmed_box(points: &[[f64; 3]]) -> ([f64; 3], [f64; 3]) {
 ///
 /// Why: the sparse points cover only what the cameras see. For a capture from one side of an
 /// object (DTU's rig, a turntable seen from above), [`roi_from_points`] centres its sphere on
-/// the visible side and cuts the rest off (23 % of the simulator's `blob` with 49 views, 48 %
-/// with 16, measured with `scripts/colmap_roundtrip.sh`), and a table or room around the object
-/// swells it (373 mm radius against a 100 mm object with the simulator's `ground_plane`). The
+/// the visible side and cuts the rest off (up to about half of the object with a sparse rig,
+/// `scripts/colmap_roundtrip.sh`), and a table or room around the object swells it to several
+/// times the object's size. The
 /// point the optical axes meet is where such a capture aims, whatever the points cover
 /// (instant-nsr-pl's default `lookat` centre, `normalize_poses` in `datasets/colmap.py`, takes it
 /// from pairs of rays; [`roi_from_cameras`] from all of them at once, in least squares).

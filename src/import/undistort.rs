@@ -1,6 +1,5 @@
 //! Undistortion of COLMAP's distorted pinhole-like cameras (SIMPLE_RADIAL, RADIAL, OPENCV) into
-//! pinhole images, so that neus-aug's pinhole rays see what the lens saw (issue 16, build item 1:
-//! "distorted images are undistorted into the scene").
+//! pinhole images, so that neus-aug's pinhole rays see what the lens saw.
 //!
 //! Convention (COLMAP `src/colmap/sensor/models.h`, `OpenCVCameraModel::Distortion`; SIMPLE_RADIAL
 //! and RADIAL are its special cases `k2 = p1 = p2 = 0` and `p1 = p2 = 0`): a point at normalised

@@ -2,7 +2,7 @@
 //! components enclosed by another, and culling of what no camera sees.
 //!
 //! Four rules, applied in this order to the mesh in **normalised space** (cameras of the training
-//! views, DESIGN §3):
+//! views):
 //!
 //! 1. **Mask culling** (when the training views have masks): a vertex is removed when some training
 //!    view sees it inside its image but outside that view's object mask dilated by
@@ -21,38 +21,36 @@
 //!    ground-truth mesh (tested) and removes specks.
 //! 3. **Enclosed components**: a component that lies inside another, larger one (every sampled
 //!    vertex has a generalised winding number of magnitude above ½ with respect to the larger
-//!    component's triangles; Jacobson, Kavan & Sorkine-Hornung, *Robust Inside-Outside
-//!    Segmentation using Generalized Winding Numbers*, SIGGRAPH 2013) is removed. Such a shell is
-//!    a cavity inside the object: no camera outside the object sees it, so no image supports it,
-//!    and DTU's scans hold only visible surface. Seen on the torus (`results/geometry/
-//!    holes-ia-2026-11-24`): closed bubbles inside the tube, 2 % of the surface, that the area
-//!    rule keeps. A part that sits in another's hole (a ball inside a ring) has winding number 0
-//!    there and stays (tested). The winding number does not need the larger component to be
-//!    closed (mask culling may have cut it) and does not depend on its face orientation.
+//!    component's triangles; Jacobson, Kavan & Sorkine-Hornung, *Robust Inside-Outside Segmentation
+//!    using Generalized Winding Numbers*, SIGGRAPH 2013) is removed. Such a shell is a cavity
+//!    inside the object: no camera outside the object sees it, so no image supports it, and DTU's
+//!    scans hold only visible surface. Such bubbles (inside a ring's tube, say) can hold a few
+//!    percent of the surface, which the area rule keeps. A part that sits in another's hole (a ball
+//!    inside a ring) has winding number 0 there and stays (tested). The winding number does not
+//!    need the larger component to be closed (mask culling may have cut it) and does not depend on
+//!    its face orientation.
 //!
 //! 4. **Unseen faces** ([`cull_unseen`], run by `reconstruct` after the three rules above when
-//!    `mesh.clean_min_visible_views > 0`): a face is kept when at least that many training
-//!    cameras see its centroid, in their image and not hidden by the mesh itself (one ray per
-//!    camera through the mesh's own BVH). What no camera sees (the underside of an object on a
-//!    turntable, the back of a plaque shot from the front) has no image evidence: the SDF there
-//!    is whatever the initialisation left, and it costs accuracy where it pokes into the
-//!    observed volume (`results/geometry/knobs-2026-11-25`). The rule mirrors how the ground
-//!    truth is made: DTU's structured-light scans, and the simulator's points (`sim::gt`), hold
-//!    only surface that some camera sees. Two views, the default, is the least that
-//!    triangulates a point; it is the default of NeuralWarp's triangle filter (Darmon et al.,
-//!    CVPR 2022, `evaluation/mesh_filtering.py`, `visible_mask` with `--min_nb_visible 2`),
-//!    which rasterises the mesh in each view where this casts rays. The result is an open
-//!    surface; `reconstruct` keeps the closed one beside it (`mesh_closed.ply`) and measures the
-//!    genus on that. An optional margin ([`grow_by_distance`], `mesh.clean_visible_margin_mm`,
-//!    default 0) keeps faces near a seen one as well: surface that the truth shows to a single
-//!    camera at 85–90° (a silhouette rim) is lost without it, but the unseen bulges it is meant
-//!    to remove start right at the seen edges, so any margin keeps their worst part (blob s0:
-//!    0.671 mm at 0 against 0.615 at 4 mm; relief 0.538 against 0.708,
-//!    `results/geometry/visible-2026-11-25`).
+//!    `mesh.clean_min_visible_views > 0`): a face is kept when at least that many training cameras
+//!    see its centroid, in their image and not hidden by the mesh itself (one ray per camera
+//!    through the mesh's own BVH). What no camera sees (the underside of an object on a turntable,
+//!    the back of a plaque shot from the front) has no image evidence: the SDF there is whatever
+//!    the initialisation left, and it costs accuracy where it pokes into the observed volume. The
+//!    rule mirrors how the ground truth is made: DTU's structured-light scans, and the simulator's
+//!    points (`sim::gt`), hold only surface that some camera sees. Two views, the default, is the
+//!    least that triangulates a point; it is the default of NeuralWarp's triangle filter (Darmon et
+//!    al., CVPR 2022, `evaluation/mesh_filtering.py`, `visible_mask` with `--min_nb_visible 2`),
+//!    which rasterises the mesh in each view where this casts rays. The result is an open surface;
+//!    `reconstruct` keeps the closed one beside it (`mesh_closed.ply`) and measures the genus on
+//!    that. An optional margin ([`grow_by_distance`], `mesh.clean_visible_margin_mm`, default 0)
+//!    keeps faces near a seen one as well: surface that the truth shows to a single camera at
+//!    85–90° (a silhouette rim) is lost without it, but the unseen bulges it is meant to remove
+//!    start right at the seen edges, so any margin keeps their worst part (measured:
+//!    docs/recipe.md).
 //!    Two follow-ups ([`split_unseen`]): a component of the closed surface of which no face is
 //!    seen is removed from the closed surface as well (a floater behind the object, which rules
 //!    1–3 keep when it is large and outside every other component), and rule 2 runs again on
-//!    the seen surface, which the cut can leave with specks (`results/geometry/seed2-2026-11-26`).
+//!    the seen surface, which the cut can leave with specks.
 //!
 //! Faces that lose a vertex are removed; vertices no face uses are dropped and the rest renumbered
 //! in their original order, so the result is deterministic.
@@ -514,9 +512,9 @@ pub struct UnseenCut {
 /// Rule 4 with its two follow-ups, from per-face `seen` flags of a closed cleaned mesh:
 /// - a component of the closed surface of which no face is seen goes from the closed surface
 ///   too (a floater behind the object, that rules 1–3 keep because it is large and outside
-///   every other component: `relief` at seed 2, 2.9 % of the object's area, 38 mm behind it);
+///   every other component);
 /// - rule 2 runs again on the seen surface with the same `min_area_share`: the cut leaves specks
-///   where a few faces are seen among unseen ones (three of 0.2–0.5 mm² on that run).
+///   where a few faces are seen among unseen ones.
 pub fn split_unseen(mesh: &TriMesh, seen: &[bool], min_area_share: f64) -> UnseenCut {
     assert_eq!(seen.len(), mesh.faces.len(), "one flag per face");
     let (labels, n) = face_components(mesh);

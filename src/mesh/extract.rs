@@ -108,7 +108,8 @@ where
 }
 
 /// Maps a mesh from normalised space to world millimetres: `X_world = s·X_norm + c` (the scene's
-/// `scale_mat`, DESIGN §3), computed in f64. `s > 0`, so the orientation is kept.
+/// `scale_mat`, Totoro97/NeuS `models/dataset.py`), computed in f64. `s > 0`, so the orientation is
+/// kept.
 pub fn to_world(mesh: &mut TriMesh, norm: &Normalization) {
     for v in &mut mesh.vertices {
         for (x, c) in v.iter_mut().zip(norm.center) {

@@ -2,8 +2,8 @@
 //! instant-nsr-pl, and topology checks.
 //!
 //! Frame and units: the SDF is sampled in the **normalised space** of the scene (the object inside
-//! the unit sphere, DESIGN §3); [`extract::to_world`] maps a mesh to world millimetres with the
-//! scene's `scale_mat` before it is written or scored.
+//! the unit sphere, Totoro97/NeuS `models/dataset.py`); [`extract::to_world`] maps a mesh to world
+//! millimetres with the scene's `scale_mat` before it is written or scored.
 //!
 //! Conventions (one place for each):
 //! - the SDF is negative inside; a grid value `v` is **inside iff `v <= iso`** ([`inside`]). Values

@@ -33,9 +33,9 @@ pub struct TopologyReport {
     /// edge-manifold meshes, indicative otherwise. A sphere or disc is 0, a torus 1.
     pub genus: i64,
     /// Genus `(2 − χ_c − b_c) / 2` of the largest component alone (the one with the most faces;
-    /// among equals, the one holding the lowest vertex index); 0 for a mesh without faces. What
-    /// issue 13 compares between a reconstruction and its ground truth, so that a floater or a
-    /// separate small part does not change the figure.
+    /// among equals, the one holding the lowest vertex index); 0 for a mesh without faces. What is
+    /// compared between a reconstruction and its ground truth, so that a floater or a separate
+    /// small part does not change the figure.
     pub largest_genus: i64,
 }
 

@@ -596,11 +596,10 @@ fn nearest_sources(views: &[View], count: usize) -> Vec<Vec<usize>> {
 }
 
 /// Step 1 alone (the plane sweep, no consistency check and no fill) for the views `which`, as
-/// [`DepthMaps::t`] gives depths: per view of `which`, the distance along the unit ray through
-/// each pixel centre (normalised units; NaN: no depth, or outside the mask). The sources come
-/// from every view, as in [`depth_maps`]; only `which` are swept, so this costs
-/// `which.len() / cameras.len()` of step 1 (`cup`, 8 of 46 views: 2.1 s on 2 cores, against
-/// 14 s). What the depth prior's automatic switch ([`super::depth_auto`]) looks at.
+/// [`DepthMaps::t`] gives depths: per view of `which`, the distance along the unit ray through each
+/// pixel centre (normalised units; NaN: no depth, or outside the mask). The sources come from every
+/// view, as in [`depth_maps`]; only `which` are swept, so this costs `which.len() / cameras.len()`
+/// of step 1. What the depth prior's automatic switch ([`super::depth_auto`]) looks at.
 pub fn sweep_depths(
     cfg: &MvsConfig,
     cameras: &[Camera],

@@ -3,10 +3,9 @@
 //! The plane sweep of step 1 matches every pixel's window under a plane parallel to the image.
 //! Where the camera grazes a surface the window's pixels lie at depths that differ by several
 //! millimetres, the fronto-parallel warp puts the source's window in the wrong place everywhere
-//! but at its centre, and the cost's minimum moves off the surface: on `cup`'s outer wall the
-//! sweep's consistent depths within 2 mm of the truth (along the ray) fall from 99.9 % where the
-//! depth changes by less than 0.5 mm per pixel to 58 % at 2–4 mm per pixel
-//! (`results/geometry/cup-grazing-2026-11-28`).
+//! but at its centre, and the cost's minimum moves off the surface: the share of the sweep's
+//! consistent depths near the truth falls from nearly all to little more than half as the depth
+//! change per pixel grows from under half a millimetre to several (measured: docs/recipe.md).
 //!
 //! This step gives each pixel a plane of any orientation, as PatchMatch stereo does (Bleyer,
 //! Rhemann & Rother, BMVC 2011, §2–3; COLMAP's `patch_match.cu` keeps a depth and a normal per

@@ -62,8 +62,7 @@ pub(super) fn invalid(key: &str, value: impl std::fmt::Display, why: &str) -> Co
 #[serde(rename_all = "lowercase")]
 pub enum Preset {
     /// `fast` on half-size training images with half the samples per ray, shortened to
-    /// [`QUICK_ITERATIONS`] steps: about 0.4× of `fast`'s time, under 1 mm on the default scene
-    /// (issue 14).
+    /// [`QUICK_ITERATIONS`] steps: about 0.4× of `fast`'s time, under 1 mm on the default scene.
     Quick,
     /// Minutes on 2 cores: smaller hash table, fewer steps, coarser sampling.
     Fast,

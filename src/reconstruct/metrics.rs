@@ -248,7 +248,7 @@ mod tests {
             (1, 0, 2000)
         );
         assert!(m.normal_error_deg.is_none() && m.mesh.clean.is_none());
-        // Issue 13's geometry figures are unknown in old records, not zero or false.
+        // The geometry figures are unknown in old records, not zero or false.
         assert_eq!(
             (m.floor_mm, m.ratio_to_floor, m.gt_genus, m.genus_matches),
             (None, None, None, None)

@@ -56,8 +56,8 @@ impl Preset {
                 model.render.occupancy.resolution = 64;
                 train.iterations = 8000;
                 // The same coarse-to-fine schedule as `paper`, on the preset's step count: every
-                // level active after 60 % of training (issue 13: cleaner topology, and inactive
-                // levels cost nothing).
+                // level active after 60 % of training (cleaner topology, and inactive levels
+                // cost nothing).
                 model.field.hash_grid.progressive = Some(ProgressiveConfig {
                     start_level: 4,
                     start_step: 0,
@@ -76,13 +76,10 @@ impl Preset {
                 model.render.train_num_rays = 128;
                 // With the scaled decay below the grid skips so much empty space that a ray keeps
                 // only 4–9 of its 256 samples on thin or holed shapes, and the cap decides how
-                // much of the 32 768-sample budget per step is spent: 2048 rays carried 27 M of
-                // the run's 63 M samples on double-torus, 4096 carried 46 M, 8192 carry 65 M
-                // (seed 0: 0.531 mm against 0.565; thin 1.583 against 1.795; relief 0.774
-                // against 0.799 and one component against two; blob and torus do not reach the
-                // cap: unchanged). 64× the start: the reference has 32× (8192 / 256), but at 1024
-                // samples per ray its budget reaches the cap only below 32 samples per ray, ours
-                // below 4 (results/geometry/occupancy-decay-2026-11-25, issue 13).
+                // much of the 32 768-sample budget per step is spent; a lower cap leaves most of
+                // it unspent on such shapes (measured: docs/recipe.md). 64× the start: the
+                // reference has 32× (8192 / 256), but at 1024 samples per ray its budget reaches
+                // the cap only below 32 samples per ray, ours below 4.
                 model.render.max_train_num_rays = 8192;
                 model.render.occupancy.resolution = 48;
                 train.iterations = 2000;
@@ -92,10 +89,7 @@ impl Preset {
                     update_steps: 100,
                 });
                 // The grid forgets at the reference's pace per fraction of the run (0.599 per
-                // update, `decay_for_run`). With the cap above, on the 9-run holes grids: torus
-                // genus 8/9 against 5/9, Chamfer mean 0.464 against 0.650 mm; double-torus 9/9
-                // against 8/9, 0.515 against 0.508 mm; blob s0 0.654 against 0.680 mm
-                // (results/geometry/occupancy-decay-2026-11-25, issue 13).
+                // update, `decay_for_run`): holes open more often (measured: docs/recipe.md).
                 // `default` keeps 0.95 until a run measures 0.88 there (1 h 45 min on 2 cores).
                 model.render.occupancy.ema_decay = decay_for_run(train.iterations);
                 train.lr.constant_steps = 500;
@@ -107,47 +101,36 @@ impl Preset {
                 mesh.fine_res = 256;
                 // Half the rays where the colour error is high (instant-ngp's error map,
                 // `train::error_map`), and the closing that fills the sub-millimetre tunnels
-                // the map leaves through thin sheets (`mesh::closing`). Over three seeds of the
-                // suite the map keeps every scene but cup within 4× its floor (blocks s2 3.08×
-                // against 4.55×; mean ratio 2.22× against 2.40×); the closing takes thin back
-                // to genus 0 (from 2 / 1 / 1) and the CI torus to 1 (from 4)
-                // (results/geometry/error-map-fast-2026-11-26, results/geometry/closing-2026-11-26).
+                // the map leaves through thin sheets (`mesh::closing`). The map lowers the mean
+                // ratio to the floor over the built-in scenes; the closing removes the handles it
+                // adds (measured: docs/recipe.md).
                 train.error_map.share = 0.5;
                 mesh.close_radius = 1;
                 // One-sided finite differences over 2ε (`render.fd_one_sided_span`) on every
-                // sample before the curvature ramp and on three in four during it (issue 14: a
-                // step with fewer taps). Against the central runs of the same recipe, three
-                // seeds: the suite's mean ratio to the floor 2.18× against 2.22× (24 runs), the
-                // holes grids 1.37× against 1.33× with every genus right in both (18 runs;
-                // double-torus 6 % worse on average, thin 13–25 % better; blocks' genus wrong at
-                // all three seeds, against two central); the step 1.09–1.15× faster, blob s0
-                // end to end in 151 s against 169 s on Zen 4
-                // (results/geometry/span2-fast-2026-11-26,
-                // results/speed/zen4-2026-11-26-span2-fast).
+                // sample before the curvature ramp and on three in four during it: a step with
+                // fewer taps, about 1.1× faster at the accuracy of central differences
+                // (measured: docs/recipe.md).
                 model.render.fd_central_every = 4;
                 model.render.fd_one_sided_span = 2.0;
             }
             Preset::Quick => {
-                // `fast` shortened to 1400 steps, every schedule kept at its fraction of the run
-                // (issue 14: time to mesh at ≤ 1.0 mm). Default scene, Zen 4: 0.669 / 0.757 mm at
-                // seeds 0 / 1 in 34 s, against 0.689 / 0.563 mm in 51 s at 2000 steps; 1100
-                // steps gave 0.794 mm at seed 0; torus seed 0 0.635 mm, genus 1
-                // (results/speed/zen4-2026-11-25-quick1400).
+                // `fast` shortened to 1400 steps, every schedule kept at its fraction of the run:
+                // a short time to mesh at under 1 mm on the default scene (measured:
+                // docs/recipe.md).
                 let mut c = scale_run_length(&Preset::Fast.config(), QUICK_ITERATIONS);
                 // The decay straight from the reference rather than rescaled from fast's f32.
                 c.model.render.occupancy.ema_decay = decay_for_run(QUICK_ITERATIONS);
-                // Measured on the default scene, Zen 3 (results/speed/avx2-zen3-2026-11-23-s128/):
                 // 128 samples per ray halve the cost of a step; half-size training images (a
                 // 1600×1200 DTU view becomes 800×600, the reference's own size, instant-nsr-pl
                 // `configs/neus-dtu.yaml` `img_downscale: 2`) give back the accuracy 128 samples
-                // lose (0.688 / 0.615 mm at seeds 0 / 1, against fast's 0.680 at seed 0).
+                // lose (measured: docs/recipe.md).
                 c.preset = Preset::Quick;
                 // `quick` keeps the uniform sampler and the raw level set: its time-to-mesh
-                // figures (issue 14) were measured so, and the map was not run at 1400 steps.
+                // figures were measured so, and the map was not run at 1400 steps.
                 c.train.error_map = Default::default();
                 c.mesh.close_radius = 0;
-                // Central differences too, for the same reason (one-sided ones over ε at 1630
-                // steps lost to central at 1400, results/speed/zen4-2026-11-26-one-sided).
+                // Central differences too, for the same reason (one-sided ones over ε, given the
+                // steps their speed buys, lost to central ones).
                 c.model.render.fd_central_every = 1;
                 c.model.render.fd_one_sided_span = 1.0;
                 c.model.render.num_samples_per_ray = 128;
@@ -155,23 +138,19 @@ impl Preset {
                 // Held-out views at fast's resolution, so PSNR and normal error compare.
                 c.data.render_downscale = 1;
                 // The depth prior's automatic switch a quarter into the run (step 350): at step
-                // 200, where a tenth of 1400 steps and `min_step` put it, `blocks`' front has
-                // not settled on half-size images (3.52 / 4.41 / 1.84 % of rays with solid in
-                // front at seeds 0–2, against the 5 % threshold); at 350 1.13–2.25 %, `cup`
-                // 22.6–23.7 % (results/geometry/depth-auto-2026-11-28).
+                // 200, where a tenth of 1400 steps and `min_step` put it, the front of an object
+                // without a cavity has not settled on half-size images and comes close to the
+                // switch's 5 % threshold; at step 350 it has (measured: docs/recipe.md).
                 c.train.depth.auto.at = 0.25;
                 return c;
             }
         }
         model.loss.curvature = delayed_curvature(train.iterations);
         if self != Preset::Paper {
-            // The sphere start, unless the masks carve most of the init sphere away (issue 13):
-            // then the visual hull's. Fast, 9-run grids: torus genus right in 9 of 9 runs (8 of
-            // 9 from the sphere), Chamfer 0.424–0.509 mm; double-torus 9 of 9 either way; `thin`
-            // 1.235 / 1.062 mm at seeds 0 / 1 (1.583 / 1.514); `rods` 0.65–0.69 mm (an empty mesh
-            // from the sphere). Scenes that fill the sphere train bit for bit as before
-            // (`train::hull` module docs, results/geometry/sphere-or-hull-2026-11-25).
-            // `paper` keeps the reference's sphere.
+            // The sphere start, unless the masks carve most of the init sphere away: then the
+            // visual hull's, which keeps a frame of thin rods from turning to fog (`train::hull`
+            // module docs; measured: docs/recipe.md). Scenes that fill the sphere train bit for
+            // bit as before. `paper` keeps the reference's sphere.
             train.init.kind = InitKind::SphereOrHull;
         }
         RunConfig {
@@ -221,15 +200,14 @@ pub fn scale_run_length(c: &RunConfig, iterations: u64) -> RunConfig {
     s
 }
 
-/// The curvature weight of every preset (issue 13): Neuralangelo's mean-|Laplacian| loss at
+/// The curvature weight of every preset: Neuralangelo's mean-|Laplacian| loss at
 /// weight 5·10⁻⁴ (`projects/neuralangelo/configs/base.yaml`, `curvature: 5e-4`), but **off for the
 /// first half of training** and ramped in linearly over the next tenth, i.e.
 /// `[iterations/2, 0, 5e-4, 3·iterations/5]`: the ramp ends when the last hash level turns on in
 /// every preset's progressive schedule (fast 1200/2000, default 4800/8000, paper 12000/20000).
-/// Neuralangelo warms the weight up from step 0; here, on the torus, that kept the membrane across
-/// the hole (fast preset, 2.09 mm, mask IoU 0.74), while the delayed ramp lets the masks carve the
-/// topology first and then smooths it: torus seed 0 0.688 → 0.617 mm, genus 10 → 2, held-out
-/// normal error 10.6° → 5.9°; default scene 1.061 → 0.687 mm, 9.3° → 3.7° (results/geometry/).
+/// Neuralangelo warms the weight up from step 0; on short runs that froze a membrane across a hole
+/// before the masks could open it, while the delayed ramp lets the masks carve the topology first
+/// and then smooths it (measured: docs/recipe.md).
 pub fn delayed_curvature(iterations: u64) -> Scheduled {
     Scheduled::Linear(iterations / 2, 0.0, 5e-4, iterations * 3 / 5)
 }

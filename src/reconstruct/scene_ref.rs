@@ -33,10 +33,10 @@ pub struct ResolvedScene {
 /// empty name is the embedded default scene.
 ///
 /// A folder in the working directory that holds no scene (no `cameras_sphere.npz`) does not
-/// shadow a DTU scan or a built-in scene of the same bare name: `neus-aug reconstruct cup` run
-/// beside a folder `cup/` of the user's own files trains the built-in `cup`, with a warning
-/// that names the folder. A name written as a path (`./cup`, `runs/cup`, `/data/cup`) is
-/// always the folder.
+/// shadow a DTU scan or a built-in scene of the same bare name: `neus-aug reconstruct torus`
+/// run beside a folder `torus/` of the user's own files trains the built-in `torus`, with a
+/// warning that names the folder. A name written as a path (`./torus`, `runs/torus`,
+/// `/data/torus`) is always the folder.
 pub fn resolve_scene(
     spec: &str,
     data_root: &Path,

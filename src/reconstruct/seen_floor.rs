@@ -2,17 +2,16 @@
 //! ([`crate::mesh::clean`]: a face stays when at least `mesh.clean_min_visible_views` training
 //! cameras see its centroid), scored by the same DTU protocol as the run's mesh.
 //!
-//! The Chamfer floor (`sim::Floor`, `floor_mm` in `metrics.json`) is the whole true mesh scored
-//! by the protocol: what a perfect reconstruction would get if it were scored whole. The scored
-//! mesh of a run is cut by rule 4, so surface that fewer training cameras see than the rule asks
-//! is missing from it whatever the training did: the ground truth keeps every point that some
-//! camera sees (`sim::gt`, as DTU's scans hold what the scanner saw), rule 4 keeps what two
-//! cameras see. The seen floor is what the perfect reconstruction gets after the same cut, so
-//! `chamfer_sum / floor_seen` says how far the training is from what the rig and the rule let
-//! it reach, and `floor_seen − floor` what the rule costs on this scene and rig. On the built-in
-//! scenes with the default rig and 3 held-out views the cut costs at most 0.04 mm of
-//! completeness, but 0.17 mm on `cup`, whose inner wall near the bottom only one camera sees
-//! (`results/geometry/seen-floor-2026-11-28`).
+//! The Chamfer floor (`sim::Floor`, `floor_mm` in `metrics.json`) is the whole true mesh scored by
+//! the protocol: what a perfect reconstruction would get if it were scored whole. The scored mesh
+//! of a run is cut by rule 4, so surface that fewer training cameras see than the rule asks is
+//! missing from it whatever the training did: the ground truth keeps every point that some camera
+//! sees (`sim::gt`, as DTU's scans hold what the scanner saw), rule 4 keeps what two cameras see.
+//! The seen floor is what the perfect reconstruction gets after the same cut, so `chamfer_sum /
+//! floor_seen` says how far the training is from what the rig and the rule let it reach, and
+//! `floor_seen − floor` what the rule costs on this scene and rig. The cost is small where every
+//! surface faces several cameras, and largest on a deep cavity, whose inner wall near the bottom
+//! only one camera may see.
 //!
 //! The visibility test looks at face centroids, so the true mesh is first subdivided
 //! ([`crate::mesh::subdivide`]) to edges of at most [`EDGE_MM`] (at most [`MAX_FACES`] faces):
@@ -65,8 +64,8 @@ pub struct SeenFloor {
 ///
 /// The rule judges the subdivided mesh, but an original face whose pieces are all kept (or all
 /// cut) is scored as the original face: the protocol samples a triangle on a grid of its own
-/// edges, so scoring the subdivided mesh would move the figure by itself (+0.02 mm on the
-/// full-size `cup` uncut). Only the faces the cut's edge crosses are scored in pieces, and with
+/// edges, so scoring the subdivided mesh would move the figure by itself (by a few hundredths of
+/// a millimetre). Only the faces the cut's edge crosses are scored in pieces, and with
 /// no cut the scored mesh is the true mesh itself.
 pub fn seen_floor(
     truth_world: &TriMesh,

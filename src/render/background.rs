@@ -1,6 +1,6 @@
-//! The learned background for training without masks (issue 16): a small radiance field on the
-//! part of each ray beyond the marched box, volume-rendered to a colour `C_bg` that replaces the
-//! constant background behind the foreground.
+//! The learned background for training without masks: a small radiance field on the part of each
+//! ray beyond the marched box, volume-rendered to a colour `C_bg` that replaces the constant
+//! background behind the foreground.
 //!
 //! What the references do, and what is taken from each:
 //! - NeuS (`models/renderer.py`, `render_core_outside`; `confs/womask.conf`, `n_outside = 32`):

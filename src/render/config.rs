@@ -42,29 +42,27 @@ pub struct RenderConfig {
     pub shards: usize,
     /// Scale of the view-direction terms (spherical-harmonic degrees 1–3) in the colour network's
     /// input, as a [`Scheduled`] value (1: the reference's full view dependence). Below 1 early in
-    /// training, the colour network cannot give one surface point a different colour per view, so
-    /// a wrong surface (a lid over a concavity, a membrane across a hole) that shows what lies
-    /// behind it no longer fits every view and photometric consistency moves it; the ramp to 1
-    /// lets real view-dependent effects (highlights) back in later. The degree-0 term is constant
-    /// and kept. This project's own choice (issue 13, the `cup` lid), not a reference's; in spirit
-    /// the coarse-to-fine annealing of a positional encoding's bands (BARF, Lin et al. 2021; Nerfies,
-    /// Park et al. 2021), applied to the direction encoding. Queries after training use the
-    /// value at the last step.
+    /// training, the colour network cannot give one surface point a different colour per view, so a
+    /// wrong surface (a lid over a concavity, a membrane across a hole) that shows what lies behind
+    /// it no longer fits every view and photometric consistency moves it; the ramp to 1 lets real
+    /// view-dependent effects (highlights) back in later. The degree-0 term is constant and kept.
+    /// This project's own choice, not a reference's; in spirit the coarse-to-fine annealing of a
+    /// positional encoding's bands (BARF, Lin et al. 2021; Nerfies, Park et al. 2021), applied to
+    /// the direction encoding. Queries after training use the value at the last step.
     pub view_dependence: Scheduled,
     /// Which training samples take central finite differences of the SDF (six taps, `x ± ε·e_a`)
     /// and which one-sided ones (three taps, `x + ε·e_a` or `x − ε·e_a`, the centre's own value
     /// standing for the other side). 1 (the default): every sample central, as Neuralangelo
     /// (`projects/neuralangelo/utils/modules.py`, the `numerical` gradient) and instant-nsr-pl
-    /// (`models/geometry.py`, `grad_type: finite_difference`) do. `k > 1` (opt-in): one-sided,
-    /// `+` and `−` in turn (so their first-order errors, `±ε/2·∂²f/∂x_a²`, cancel on average),
-    /// except that while the curvature loss is on every `k`-th sample of a batch takes central
-    /// differences and carries the curvature term (its Laplacian needs both sides), weighted
-    /// `k` so the loss stays an unbiased estimate of the mean over all samples. A one-sided
-    /// difference costs about 0.6 of a central one in the hash grid and the SDF network: the
-    /// training step runs 1.3× faster on one-sided samples (`cargo bench --bench field`, issue
-    /// 14), at an accuracy cost over `ε` and none measured over `2ε`
-    /// (`fd_one_sided_span = 2`; `docs/recipe.md`). This project's choice, not a reference's.
-    /// Renders and meshes after training always use central differences.
+    /// (`models/geometry.py`, `grad_type: finite_difference`) do. `k > 1` (opt-in): one-sided, `+`
+    /// and `−` in turn (so their first-order errors, `±ε/2·∂²f/∂x_a²`, cancel on average), except
+    /// that while the curvature loss is on every `k`-th sample of a batch takes central differences
+    /// and carries the curvature term (its Laplacian needs both sides), weighted `k` so the loss
+    /// stays an unbiased estimate of the mean over all samples. A one-sided difference costs about
+    /// 0.6 of a central one in the hash grid and the SDF network: the training step runs 1.3×
+    /// faster on one-sided samples (`cargo bench --bench field`), at an accuracy cost over `ε` and
+    /// none measured over `2ε` (`fd_one_sided_span = 2`; `docs/recipe.md`). This project's choice,
+    /// not a reference's. Renders and meshes after training always use central differences.
     pub fd_central_every: u32,
     /// Span of a one-sided difference in units of `ε` (default 1): its taps sit at
     /// `x ± span·ε·e_a` and it divides by `span·ε`. At 2 a one-sided difference averages the
@@ -98,9 +96,9 @@ impl Default for RenderConfig {
 
 /// Loss weights (instant-nsr-pl `systems/neus.py` `training_step` and the YAML's `system.loss`):
 /// `lambda_rgb_l1: 1`, `lambda_rgb_mse: 0`, `lambda_eikonal: 0.1`. The mask BCE weight is 0.1 as in
-/// ../shared/DESIGN.md §5 and instant-nsr-pl `neus-blender.yaml` / `neuralangelo-dtu-wmask.yaml`
-/// (`neus-dtu-wmask.yaml` itself sets 0.0 and only masks the target colours).
-///
+/// Totoro97/NeuS `confs/wmask.conf` (`mask_weight`) and instant-nsr-pl `neus-blender.yaml` /
+/// `neuralangelo-dtu-wmask.yaml` (`neus-dtu-wmask.yaml` itself sets 0.0 and only masks the target
+/// colours).
 /// Each weight is a [`Scheduled`] value, as instant-nsr-pl reads its `lambda_*` through `C()`: a
 /// number, or `[start_step, start, end, end_step]` (e.g. `eikonal = [0, 0.1, 0.01, 5000]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -114,7 +112,7 @@ pub struct LossConfig {
     /// finite-difference taps and the centre (`Σ_k f(x ± ε e_k) − 6 f(x)) / ε²`), Neuralangelo
     /// §3.2 (`projects/neuralangelo/utils/losses.py`, `curvature_loss`). 0 (off) by default.
     pub curvature: Scheduled,
-    /// How the mask BCE keeps `log` finite (issue 13).
+    /// How the mask BCE keeps `log` finite.
     pub mask_bce: MaskBce,
     /// NeuS-style colour loss (`exp_runner.py`): the colour error only inside the mask,
     /// normalised by `3·Σ mask`, and no background colour composited. `false`: instant-nsr-pl
@@ -125,10 +123,10 @@ pub struct LossConfig {
 /// How the mask BCE of the opacity `o ∈ [0, 1]` keeps its logarithms finite.
 ///
 /// NeuS (`exp_runner.py`) and instant-nsr-pl (`systems/neus.py`) clip `o` to `[1e-3, 1 − 1e-3]`
-/// before `binary_cross_entropy`; the clip passes no gradient outside that range, so a surface
-/// that became fully opaque where the mask says background (the membrane across a hole) gets no
-/// gradient from the mask at all, and the colour network paints it with the background. Measured
-/// on the `torus` (issue 13): clip 5.49 mm, squash 0.73 mm at seed 0 (fast preset).
+/// before `binary_cross_entropy`; the clip passes no gradient outside that range, so a surface that
+/// became fully opaque where the mask says background (the membrane across a hole) gets no gradient
+/// from the mask at all, and the colour network paints it with the background. The squash keeps
+/// that gradient, and opened such membranes where the clip did not (measured: docs/recipe.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MaskBce {
@@ -190,7 +188,7 @@ pub enum BackgroundKind {
     Nerfpp,
 }
 
-/// The learned background (`[model.background]`), for training without masks (issue 16): NeuS
+/// The learned background (`[model.background]`), for training without masks: NeuS
 /// `confs/womask.conf` (`n_outside = 32`, a NeRF with 8 layers of 256), instant-nsr-pl
 /// `configs/neus-dtu.yaml` (`learned_background: true`, a hash grid → 64 → 1 + 8 density network
 /// and an 8 + SH(4) → 64 → 64 → 3 colour network). Here a frequency encoding replaces both

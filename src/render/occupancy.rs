@@ -36,13 +36,11 @@ pub const REFERENCE_DECAY: f32 = 0.95;
 /// steps in both, so a run ten times shorter has a tenth of the updates, and each must decay as
 /// much as ten of the reference's (`fast`, 2000 steps: 0.599).
 ///
-/// Why (issue 13, `results/geometry/unseen-2026-11-24/`): with the unscaled 0.95 a cell whose
-/// alpha once reached 1 needs 135 visits to fall below the 0.001 threshold, at most one per
-/// update, so at least 2160 steps, longer than the whole `fast` run; at its last step 46 % of the
-/// torus grid was still marked occupied (the inside of the tube, the hole), so the samples went
-/// where no surface is. Scaled, at the `fast` preset, the torus grid's genus is right in 8 of 9
-/// runs (5 of 9) and its Chamfer mean is 0.464 mm (0.650); double-torus 9 of 9 (8 of 9)
-/// (`results/geometry/occupancy-decay-2026-11-25/`).
+/// Why: with the unscaled 0.95 a cell whose alpha once reached 1 needs 135 visits to fall below
+/// the 0.001 threshold, at most one per update, so at least 2160 steps, longer than the whole
+/// `fast` run; empty space a short run once marked (the hole of a holed shape) stays occupied to
+/// the end and takes samples where no surface is. Scaled, holes open more often (measured:
+/// docs/recipe.md).
 pub fn decay_for_run(iterations: u64) -> f32 {
     rescale_decay(REFERENCE_DECAY, REFERENCE_STEPS, iterations)
 }

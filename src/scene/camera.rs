@@ -1,6 +1,7 @@
 //! Pinhole cameras in the OpenCV convention, projection-matrix decomposition, rays.
 //!
-//! Conventions (one place for them; ../shared/DESIGN.md §3):
+//! Conventions (one place for them; Totoro97/NeuS `models/dataset.py`, lioryariv/idr
+//! `DATA_CONVENTION.md`):
 //! - Camera frame: x right, y down, z forward (OpenCV, as IDR and NeuS use it).
 //! - A world point `X` projects to `λ·[u, v, 1]ᵀ = K·R·(X − C)`, with `K` upper triangular,
 //!   positive focal lengths and `K[2,2] = 1`, `R` the world-to-camera rotation (`det R = +1`)

@@ -1,8 +1,8 @@
 //! In-memory images: RGB photographs and single-channel masks, as f32 in [0, 1].
 //!
 //! Layout (one place for it, used by every module): row-major, `y` down and `x` right (the OpenCV
-//! pixel frame of ../shared/DESIGN.md §3), pixel `(x, y)` covers `[x, x+1) × [y, y+1)` so its centre is
-//! at `(x + 0.5, y + 0.5)`. RGB values are the PNG's stored (sRGB-encoded) values divided by the
+//! pixel frame, as IDR and NeuS use it), pixel `(x, y)` covers `[x, x+1) × [y, y+1)` so its centre
+//! is at `(x + 0.5, y + 0.5)`. RGB values are the PNG's stored (sRGB-encoded) values divided by the
 //! channel maximum, without any gamma conversion, exactly as NeuS and instant-nsr-pl read them
 //! (Totoro97/NeuS `models/dataset.py`: `cv.imread(...) / 256.0`; we divide by 255 so white is 1.0).
 

@@ -1,4 +1,4 @@
-//! The `degrade` effect: image degradations `KIND:q` (../shared/DESIGN.md §6, implemented in
+//! The `degrade` effect: image degradations `KIND:q` (the paper's appendix, implemented in
 //! [`crate::augment::Degradation`]), applied to each rendered view after exposure and clipping,
 //! in the listed order, each with its own random stream per view
 //! ([`super::render`]: seeded by scene seed, view and position in the list).

@@ -293,7 +293,7 @@ pub struct Effects {
     /// A ground plane under the object: in the images, never in the masks.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ground_plane: Option<GroundPlane>,
-    /// Image degradations `KIND:q` (../shared/DESIGN.md §6), applied in order after exposure.
+    /// Image degradations `KIND:q` (the paper's appendix), applied in order after exposure.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub degrade: Vec<String>,
 }

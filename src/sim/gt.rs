@@ -5,8 +5,9 @@
 //!   plane, anchored at its longest edge; grid points inside the triangle are kept, and every mesh
 //!   vertex is added. So each point lies on the mesh (up to the f32 rounding of world coordinates
 //!   below 512 mm: ≤ 2.7e-5 mm) and the density is one point per `spacing²` of area. (DTU's own
-//!   `MeshSupSamp` rule, ../shared/DESIGN.md §4, leaves gaps of several spacings on thin triangles,
-//!   so it is kept for scoring reconstructions, not for making ground truth.)
+//!   `MeshSupSamp` rule, as jzhangbs/DTUeval-python `eval.py` ports it, leaves gaps of several
+//!   spacings on thin triangles, so it is kept for scoring reconstructions, not for making ground
+//!   truth.)
 //! - **Visibility.** A point is kept when some camera sees it: it projects inside the image,
 //!   in front of the camera, and no surface crosses the line of sight more than
 //!   `gt.occlusion_eps_mm` (0.02 mm, a tenth of DTU's 0.2 mm sampling) in front of it. The epsilon

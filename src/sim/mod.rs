@@ -1,5 +1,5 @@
 //! The scene simulator: DTU-style synthetic scenes with ground truth, simulating only the effects
-//! a scene calls for (../shared/DESIGN.md §7).
+//! a scene calls for.
 //!
 //! A [`SceneDescription`] (TOML; [`desc`]) names an object (a built-in procedural shape,
 //! [`shapes`], or a mesh file), a DTU-like rig ([`rig`]), sampling, ground-truth settings and
@@ -23,7 +23,7 @@
 //! ```
 //! The same description gives the same bytes in every file but `timings.json`.
 //!
-//! `meta.json` also holds what a reconstruction is judged against beyond Chamfer (issue 13):
+//! `meta.json` also holds what a reconstruction is judged against beyond Chamfer:
 //! `mesh_genus`, the genus of the true mesh's largest component (Euler characteristic,
 //! [`crate::mesh::TopologyReport::largest_genus`]), and `floor`, the true mesh itself scored by
 //! the DTU protocol against the scene's own ground truth ([`Floor`]): what a perfect
@@ -62,8 +62,8 @@ use std::time::Instant;
 pub const SIM_FORMAT_VERSION: u32 = 3;
 
 /// The seed of the floor's shuffle before downsampling (the DTU protocol's step 2). Any fixed
-/// seed would do: on the full-size `torus`, seeds 0–3 give floors within 0.0003 mm of each other
-/// (0.3037–0.3040 mm, `neus-aug eval --mesh gt_mesh.ply --seed S`), below the printed precision.
+/// seed would do: the floor moves from one seed to another by far less than the printed precision
+/// (`neus-aug eval --mesh gt_mesh.ply --seed S`).
 pub const FLOOR_SEED: u64 = 0;
 
 /// Why a synthetic scene cannot be described, prepared or written. Every variant names the key,

@@ -25,20 +25,20 @@ pub enum Grid {
     /// IA off / on under each degradation at the milder strength (the paper's appendix).
     DegradedMild,
     /// Accuracy against time: iterations, image scale, samples per ray and marching-cubes
-    /// resolution, one at a time around the preset, plus the presets (issue 6).
+    /// resolution, one at a time around the preset, plus the presets.
     Pareto,
     /// Baseline and SIA for a tenth of the preset's steps with a coarse mesh: a check of the
     /// whole machinery in minutes.
     Smoke,
-    /// Geometry against the ground truth on every built-in scene (issue 13): the baseline on
+    /// Geometry against the ground truth on every built-in scene: the baseline on
     /// each scene, plus DIA and SIA on the scenes with holes ([`HARD_IA_SCENES`]); the report
     /// adds the Chamfer floor, the ratio to it, genus against the truth, components before and
     /// after clean-up and the held-out normal error.
     Hard,
 }
 
-/// Scenes on which the `hard` grid also runs DIA and SIA: the ones whose holes must open (issue
-/// 13 asks the genus to match the truth in 9 of 9 runs, 3 seeds × baseline / SIA / DIA, on each).
+/// Scenes on which the `hard` grid also runs DIA and SIA: the ones whose holes must open (the
+/// genus should match the truth in 9 of 9 runs, 3 seeds × baseline / SIA / DIA, on each).
 pub const HARD_IA_SCENES: [&str; 2] = ["torus", "double-torus"];
 
 impl Grid {
@@ -92,7 +92,7 @@ impl Grid {
         }
     }
 
-    /// Seeds when `--seeds` is not given: 3 for the paper's grids (the issue's minimum), 1 for
+    /// Seeds when `--seeds` is not given: 3 for the paper's grids, 1 for
     /// `pareto` (twelve configurations; timings matter more than seeds there), 2 for `smoke`.
     pub fn default_seeds(self) -> u32 {
         match self {

@@ -11,12 +11,12 @@
 //! | `reduced`       | IA off / on × 10, 25, 50, 75 % of the training views                   | Table 4     |
 //! | `degraded`      | IA off / on × the five degradations at their main strength              | Table 4     |
 //! | `degraded-mild` | IA off / on × the five degradations at their milder strength            | appendix    |
-//! | `pareto`        | one factor at a time around the preset, plus the presets (issue 6)      | —           |
+//! | `pareto`        | one factor at a time around the preset, plus the presets                | —           |
 //! | `smoke`         | baseline and SIA for a tenth of the preset's steps: a quick check       | —           |
-//! | `hard`          | baseline; DIA/SIA on torus, double-torus: floor, genus, normals         | issue 13    |
+//! | `hard`          | baseline; DIA/SIA on torus, double-torus: floor, genus, normals         | —           |
 //!
 //! "IA" is SIA unless `--ia dia` ([`grid::StudyOptions::ia`]): the paper's best NeuS geometry
-//! figure is SIA's (DESIGN §8: 1.91 vs 2.03 for the baseline and for DIA) at the baseline's cost.
+//! figure is SIA's (its Table 2: 1.91 vs 2.03 for the baseline and for DIA) at the baseline's cost.
 //!
 //! # Layout of a study folder
 //! ```text

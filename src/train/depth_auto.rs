@@ -1,11 +1,10 @@
-//! The depth prior's automatic switch (`[train.depth.auto]`, issue 13; on in every preset but
-//! `paper`).
+//! The depth prior's automatic switch (`[train.depth.auto]`; on in every preset but `paper`).
 //!
 //! **Why.** The depth prior ([`super::depth`]) is what removes the false lid that NeuS at the
-//! `fast` preset lays across a cavity and paints with what lies behind it (`cup`: 4.81 →
-//! 0.97 mm at weight 10, `results/geometry/w10-suite-2026-11-28`), but on other shapes it costs
-//! (thin parts, and the default scene at the `default` preset: 0.438 → 0.679 mm), so it cannot
-//! simply be on. A user with a mug does not know to ask for it. The switch asks the images.
+//! `fast` preset lays across a cavity and paints with what lies behind it, but on other shapes it
+//! costs accuracy (thin parts, a smooth object at the `default` preset), so it cannot simply
+//! be on (measured: docs/recipe.md). A user with a deep concavity does not know to ask for it.
+//! The switch asks the images.
 //!
 //! **The check**, once, at step `round(at · iterations)` (at least 1): the plane sweep alone
 //! ([`super::depth::sweep_depths`], no consistency check, no fill) of `views` training views
@@ -21,21 +20,12 @@
 //! check's step). The decision is written to `depth_auto.json` in the run folder, so a resumed
 //! run makes the same one.
 //!
-//! **Measured** (`results/geometry/depth-auto-2026-11-28`; 8 views, `margin` 0.2 normalised
-//! units, a fifth of the object's bounding radius): at step 200 of `fast`, seeds 0 and 1, the
-//! share is 23.7 / 24.9 % on `cup`, 16.9 / 17.9 % on a mug from outside the project, and at
-//! most 1.3 % on every other built-in scene and on a chair from outside (`blocks` 1.09 / 0.95,
-//! `thin` 0.72 / 0.81, `relief` 0.06 / 0.34, `blob` 0.23 / 0.22; at seed 2 at most 1.41 %,
-//! `rods`; `cup` 23.0 %). At a margin of 0.1 `relief`
-//! reaches 10.0 % at seed 1 while its front is still settling, so the margin is 0.2. The check
-//! comes at a share of the run because a longer run settles later: at step 200 of `default`
-//! `blocks` has 6.2 %, at its step 800 (the tenth) 1.1 %, and `cup` 21.3 %; on `quick`'s
-//! half-size images `blocks` has up to 4.4 % at step 200 and 1.1–2.3 % at step 350, where that
-//! preset checks (`cup` 22.6–23.7 %). The threshold, 5 %, lies 3.5× above the largest share of
-//! a scene without a cavity at `fast` (`rods`, 1.41 %), 2.2× above the largest at any
-//! preset's check (`blocks` at `quick`, 2.25 %), and 3.4× below the smallest of a cavity (the
-//! mug, 16.9 %). It costs the sweep of `views` views (2.1 s of the cup's 14 s for all 46) and
-//! the march (under a second), on every run that has masks.
+//! **The defaults** (8 views, `margin` 0.2 normalised units, a fifth of the object's bounding
+//! radius, `share` 5 %): objects with a cavity seen through its opening show shares several times
+//! above the threshold at the check, objects without one a few percent at most; a margin of 0.1
+//! let a front still settling cross it. The check comes at a share of the run, not at a fixed
+//! step, because a longer run settles later (measured: docs/recipe.md). It costs the sweep of
+//! `views` views (a few seconds) and the march (under a second), on every run that has masks.
 
 use crate::scene::Camera;
 use serde::{Deserialize, Serialize};

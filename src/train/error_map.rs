@@ -13,7 +13,7 @@
 //! - every `rebuild_every` steps the per-view distribution is rebuilt with cell weights
 //!   `w = max(err, floor)^power`: `floor` keeps every cell reachable, `power` sharpens the focus;
 //!   then capped at `cap` times the view's mean weight, so that a few cells whose error the rays
-//!   do not remove (silhouette edges a pixel off, on `relief`) do not take the view's rays;
+//!   do not remove (silhouette edges a pixel off) do not take the view's rays;
 //! - a ray still draws its view uniformly (the view balance of the uniform sampler is kept);
 //!   with probability `share` its pixel comes from that view's distribution (a cell, then a
 //!   uniform pixel inside the cell), otherwise uniformly from the whole view.
@@ -22,14 +22,12 @@
 //! are explored early. The map (errors and the distribution in use) is part of the checkpoint, so
 //! a resumed run samples the same pixels as an uninterrupted one.
 //!
-//! Why: on `cup` the insides of the side walls are seen only by the far end of the rig, through
-//! the mouth, and receive few uniform rays; this sampler sends rays where the rendering is still
-//! wrong (record `results/geometry/cup-parts-2026-11-25`). At share 0.5, over three seeds of
-//! the suite, it lowers the mean ratio to the floor and keeps `blocks` within 4×, but leaves
-//! sub-millimetre tunnels through `thin`'s 2.2 mm fin and at the rim of the tiny torus of
-//! `tests/hard_shapes.rs` (record `results/geometry/error-map-fast-2026-11-26`). The `fast`
-//! preset turns it on together with the closing at extraction that fills those tunnels
-//! (`mesh::closing`, record `results/geometry/closing-2026-11-26`).
+//! Why: the inner walls of a cavity seen through its opening are seen only by the far end of the
+//! rig and receive few uniform rays; this sampler sends rays where the rendering is still wrong.
+//! At share 0.5 it lowers the mean ratio to the floor over the built-in scenes, but leaves
+//! sub-millimetre tunnels through thin sheets and at the rim of a small ring (measured:
+//! docs/recipe.md). The `fast` preset turns it on together with the closing at extraction that
+//! fills those tunnels (`mesh::closing`).
 
 use rand::Rng;
 use serde::{Deserialize, Serialize};
@@ -48,11 +46,8 @@ pub const CAP: f32 = 32.0;
 #[serde(deny_unknown_fields, default)]
 pub struct ErrorMapConfig {
     /// Probability that a ray's pixel is drawn from the error map (0: off, the uniform sampler,
-    /// the default of every preset but `fast`; 0.5 in `fast`, measured over three seeds of the
-    /// suite, where it keeps every scene but cup within 4× its floor but leaves sub-millimetre
-    /// tunnels on `thin` and the CI-sized torus, which `fast`'s `mesh.close_radius = 1` fills:
-    /// `results/geometry/error-map-fast-2026-11-26`, `results/geometry/closing-2026-11-26`;
-    /// 0.75 with the cup's other opt-ins: `results/geometry/error-map-2026-11-25`).
+    /// the default of every preset but `fast`; 0.5 in `fast`, whose `mesh.close_radius = 1` fills
+    /// the sub-millimetre tunnels it leaves through thin parts; measured: docs/recipe.md).
     pub share: f32,
     /// Exponent of the cell weights `max(err, floor)^power` (2).
     pub power: f32,
@@ -65,9 +60,8 @@ pub struct ErrorMapConfig {
     /// Steps between rebuilds of the distributions (8).
     pub rebuild_every: u64,
     /// Largest weight of a cell, as a multiple of its view's mean weight before the cap (32;
-    /// 0: no cap). Without it, single cells on `relief` took up to half of a view's draws;
-    /// with it, `blob` loses what the map gained there (record
-    /// `results/geometry/error-map-2026-11-25`).
+    /// 0: no cap). Without it, single silhouette cells took up to half of a view's draws
+    /// (measured: docs/recipe.md).
     pub cap: f32,
 }
 

@@ -1,11 +1,11 @@
-//! Visual-hull initialisation of the SDF (`[train.init] kind = "visual_hull"`, issue 13).
+//! Visual-hull initialisation of the SDF (`[train.init] kind = "visual_hull"`).
 //!
 //! The default start is the SDF network's geometric init, a sphere of radius
 //! `field.sdf.sphere_init_radius` (SAL, Atzmon & Lipman 2020; NeuS `models/fields.py`
 //! `geometric_init`). When the object is far from that sphere, as a frame of thin rods is,
 //! the first steps see no surface near the silhouettes: the mask loss drives the weight sum down
-//! everywhere, `inv_s` falls and the field becomes fog that never turns into a surface (measured
-//! in issue 13: `rods` gives an empty mesh from the sphere whatever the variance init).
+//! everywhere, `inv_s` falls and the field becomes fog that never turns into a surface (an empty
+//! mesh whatever the variance init).
 //!
 //! This module starts the field from the object's silhouettes instead, in three steps:
 //! 1. [`carve`]: voxel centres of a `res³` grid over the box `[-r, r]³` (normalised space) are
@@ -25,18 +25,12 @@
 //!
 //! `kind = "sphere_or_hull"` (every preset but `paper`) chooses between the two starts per
 //! scene, before training, from [`sphere_cover`]: the share of the init sphere's volume that lies
-//! inside the hull. On the built-in scenes at the `fast` preset's 96³ grid (radius 0.5): `rods`
-//! 0.0 %, `torus` 7.0 % (its hole takes the sphere's middle), `thin` 33.9 %, `double-torus`
-//! 39.4 %, `blocks` 78.9 %, `plate` 99.1 %, `blob`, `relief`, `cup` 100 %. With the `fast`
-//! recipe of 2026-11-25 the hull start wins where the masks carve most of the sphere away
-//! (`rods`: an empty mesh from the sphere, 0.65–0.69 mm from the hull; `torus`: genus right in
-//! 9 of 9 grid runs against 8 of 9; `thin`: 1.583 → 1.235 and 1.514 → 1.062 mm at seeds 0 and
-//! 1; `double-torus`: genus right in 9 of 9 either way, Chamfer within 0.03 mm) and loses where
-//! the object fills it (`plate` 0.763 → 1.089 mm, `blocks` 1.141 → 1.305, `relief` 0.774 →
-//! 0.830 at seed 0). The threshold, one half, says "the masks carve away most of the sphere"; the
-//! scenes lie far from it on both sides (39 % and 79 %) (results/geometry/sphere-or-hull-2026-11-25).
+//! inside the hull. The hull start wins where the masks carve most of the sphere away (a frame of
+//! thin rods, a ring whose hole takes the sphere's middle, thin sheets) and loses where the object
+//! fills it (measured: docs/recipe.md). The threshold, one half, says "the masks carve away most
+//! of the sphere"; the shares met in practice lie far from it on both sides.
 //!
-//! The hull contains the object but not its concavities (a cup's inside, a relief's hollows):
+//! The hull contains the object but not its concavities (a vessel's inside, a relief's hollows):
 //! rendering carves those during training, as it carves the sphere. Holes the masks show (a
 //! torus's hole, the gaps of a frame) are open from the start.
 
@@ -64,13 +58,12 @@ pub enum InitKind {
     /// `VisualHull` when the run trains with masks and every training view has one, else
     /// `Sphere` (for scripts that run the same configuration on scenes with and without masks).
     Auto,
-    /// `Sphere`, unless every training view has a mask and the masks' visual hull covers less
-    /// than [`InitConfig::sphere_cover_min`] of the init sphere's volume: then `VisualHull`
-    /// ([`sphere_cover`]). The sphere start works when the object fills a good part of the
-    /// sphere, and the hull start costs accuracy there (issue 13: plate, relief, blocks, cup);
-    /// when the masks carve most of the sphere away (a frame of thin rods), the first steps' mask
-    /// loss drives the weight sum down everywhere and the field turns to fog (`rods`: an empty
-    /// mesh), which the hull start avoids.
+    /// `Sphere`, unless every training view has a mask and the masks' visual hull covers less than
+    /// [`InitConfig::sphere_cover_min`] of the init sphere's volume: then `VisualHull`
+    /// ([`sphere_cover`]). The sphere start works when the object fills a good part of the sphere,
+    /// and the hull start costs accuracy there; when the masks carve most of the sphere away (a
+    /// frame of thin rods), the first steps' mask loss drives the weight sum down everywhere and
+    /// the field turns to fog (an empty mesh), which the hull start avoids.
     SphereOrHull,
 }
 

@@ -17,7 +17,7 @@ pub(super) fn csv_field(s: &str) -> String {
     }
 }
 
-/// One row per run. The geometry columns (issue 13) follow when any record has them
+/// One row per run. The geometry columns follow when any record has them
 /// ([`RunRecord::geometry`]), so older studies keep their columns.
 pub(super) fn runs_csv(records: &[RunRecord]) -> String {
     let geometry = records.iter().any(|r| r.geometry.is_some());

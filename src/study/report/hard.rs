@@ -1,5 +1,5 @@
-//! The geometry against the ground truth (issue 13): the `hard` grid's `report.md`, and the
-//! section other grids' reports add when their runs recorded it.
+//! The geometry against the ground truth: the `hard` grid's `report.md`, and the section other
+//! grids' reports add when their runs recorded it.
 //!
 //! Per scene and arm, mean over seeds: Chamfer, the scene's floor (its true mesh scored by the
 //! same protocol, `sim::Floor`), the ratio to the floor, how many runs' largest component has the
@@ -17,7 +17,7 @@ use crate::augment::AugMode;
 use serde::Serialize;
 use std::fmt::Write as _;
 
-/// The ratio to the floor issue 13 asks every scene to stay within ("Chamfer ≤ 4× its floor").
+/// The ratio to the floor every scene should stay within ("Chamfer ≤ 4× its floor").
 pub(super) const RATIO_TARGET: f64 = 4.0;
 
 fn geo(r: &RunRecord) -> Option<&GeometryRecord> {
@@ -213,8 +213,8 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
         md,
         "## Geometry against the ground truth (mean over seeds)\n\n\
          Floor: the scene's true mesh scored by the same protocol (what a perfect reconstruction \
-         gets; `meta.json` of the scene); ratio = Chamfer / floor, per run then averaged (issue 13 \
-         asks ≤ 4). Genus: of the largest component of the written (cleaned) mesh, per seed, \
+         gets; `meta.json` of the scene); ratio = Chamfer / floor, per run then averaged (the \
+         target is ≤ 4). Genus: of the largest component of the written (cleaned) mesh, per seed, \
          with the truth's in parentheses; `=` counts the runs where they agree. Components: \
          before → after clean-up. Normal error: mean angle between rendered and true normals on \
          the held-out views (°). PSNR: held-out views (dB). Seen floor: the true mesh less what \
@@ -293,7 +293,7 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
         );
     }
 
-    // Genus on the scenes with holes, every arm: the issue's "9 of 9".
+    // Genus on the scenes with holes, every arm: right in how many runs ("9 of 9").
     let holed: Vec<&GeometryCell> = sum
         .cells
         .iter()

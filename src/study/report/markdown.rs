@@ -107,7 +107,7 @@ pub(super) fn report_md(
     });
     md_table(&mut md, &arm_header(first_col), &t);
 
-    // Geometry against the ground truth, when the runs recorded it (issue 13).
+    // Geometry against the ground truth, when the runs recorded it.
     if records.iter().any(|r| r.geometry.is_some()) {
         super::hard::geometry_section(&mut md, lay);
     }
@@ -115,7 +115,7 @@ pub(super) fn report_md(
     // Paired differences.
     let diffs = paired_section(&mut md, lay, rows);
 
-    // Against the paper (Table 2 only: the figures of DESIGN §8).
+    // Against the paper (Table 2 only: the paper's NeuS figures, `paper::PAPER_CHAMFER`).
     if o.grid == Grid::Table2 && lay.has_baseline_and_others() {
         super::paper::paper_section(&mut md, lay);
     }

@@ -50,7 +50,7 @@ pub struct RunRecord {
     /// Load + prepare + train + mesh, with the source run's training time for a reused training:
     /// what producing this mesh costs, without scoring and held-out renders.
     pub time_to_mesh: f64,
-    /// The geometry against the ground truth (issue 13), for the `hard` grid and for any run
+    /// The geometry against the ground truth, for the `hard` grid and for any run
     /// whose `metrics.json` knows the truth (a floor or a ground-truth genus). Absent otherwise,
     /// so the files of studies collected before it existed regenerate unchanged.
     #[serde(flatten, skip_serializing_if = "Option::is_none")]
@@ -114,7 +114,7 @@ impl GeometryRecord {
             ),
             chamfer_closed: m.chamfer_closed.as_ref().map(|c| c.chamfer_sum),
             normal_error_deg: m.normal_error_deg,
-            // A record older than the floor (issue 13's first geometry fields) is older than
+            // A record older than the floor (the first geometry fields) is older than
             // the depth prior too, but says nothing about it either way: unknown.
             depth_prior: m.floor_mm.is_some().then(|| {
                 match (&m.train.depth_auto, &m.train.depth_maps) {
