@@ -414,6 +414,9 @@ fn sphere_or_hull_init_chooses_by_the_cover_and_reports_it() {
             "data.masks=false",
             "--set",
             "train.init.sphere_cover_min=1.0",
+            // A sphere the 24 steps without masks keep a surface of (an empty mesh is an error).
+            "--set",
+            "model.field.sdf.sphere_init_radius=0.5",
         ],
     );
     assert!(
@@ -636,9 +639,10 @@ fn error_map_sampling_is_deterministic_resumable_and_reported() {
     assert!(std::fs::read_to_string(a.join("config.toml"))
         .unwrap()
         .contains("[train.error_map]"));
-    assert!(!std::fs::read_to_string(u.join("config.toml"))
+    // Every key is written: the uniform sampler's map is there, off.
+    assert!(std::fs::read_to_string(u.join("config.toml"))
         .unwrap()
-        .contains("error_map"));
+        .contains("[train.error_map]\nshare = 0.0\n"));
     fails_with(
         "",
         &["--set", "train.error_map.share=1.5"],

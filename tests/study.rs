@@ -882,3 +882,43 @@ fn a_schema_1_run_folder_still_loads() {
         .to_string();
     assert!(e.contains("train.init.smooth_voxels"), "{e}");
 }
+
+/// The reduced grid's 100 % cells are Table 2's runs of the same scene, seed and arm: with the
+/// Table 2 study's records to reuse, they count as finished without training; its other cells
+/// do not (their configurations differ).
+#[test]
+fn the_reduced_grid_reuses_table2_records_for_its_full_cells() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t2 = tmp.path().join("t2");
+    let mut o = StudyOptions::new(Grid::Table2);
+    o.scenes = vec!["blob".into()];
+    o.seeds = 2;
+    let (plan, cfgs) = make_plan(&o, None, &t2).unwrap();
+    fabricate(&t2, &plan, &cfgs, |_| 1.0, |_| 100.0);
+    collect(&t2, &tmp.path().join("t2-report")).unwrap();
+    let red = tmp.path().join("red");
+    let mut r = StudyOptions::new(Grid::Reduced);
+    r.scenes = vec!["blob".into()];
+    r.seeds = 2;
+    let (rplan, rcfgs) = make_plan(&r, None, &red).unwrap();
+    neus_aug::study::plan::open_folder(&red, &rplan, &rcfgs, None).unwrap();
+    let n = neus_aug::study::plan::import_records(&red, &rplan, &[t2.clone()]).unwrap();
+    // 100 % × {baseline, SIA} × 2 seeds.
+    assert_eq!(n, 4);
+    let records = neus_aug::study::store::read(&red).unwrap();
+    for spec in &rplan.runs {
+        let full = spec.views_fraction == Some(1.0);
+        assert_eq!(records.contains_key(&spec.id), full, "{}", spec.id);
+        if full {
+            assert_eq!(
+                run_state(&red, spec, None, &records).unwrap(),
+                RunState::Done
+            );
+        }
+    }
+    // Nothing to reuse from a folder without records.
+    let e = neus_aug::study::plan::import_records(&red, &rplan, &[tmp.path().join("nothing")])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("records.jsonl"), "{e}");
+}

@@ -71,6 +71,10 @@ pub struct StudyArgs {
     /// No progress output from the runs.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Another study folder whose finished runs of the same configuration count as runs of this
+    /// one (repeatable): e.g. the reduced grid's 100 % cells from a Table 2 study.
+    #[arg(long, value_name = "DIR")]
+    pub reuse_records: Vec<PathBuf>,
 }
 
 pub fn run(args: StudyArgs) -> anyhow::Result<()> {
@@ -157,7 +161,10 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         &plan,
         &cfgs,
         args.config.as_deref(),
-        &study::ExecOptions { quiet: args.quiet },
+        &study::ExecOptions {
+            quiet: args.quiet,
+            reuse_records: args.reuse_records.clone(),
+        },
     )
     .with_context(|| format!("study {} in {}", g, dir.display()))?;
     Ok(())

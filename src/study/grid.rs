@@ -70,7 +70,7 @@ impl Grid {
     pub fn summary(self) -> &'static str {
         match self {
             Grid::Table2 => "baseline / DIA / SIA on every scene (paper Table 2)",
-            Grid::Reduced => "IA off/on × 10, 25, 50, 75 % of the views (paper Table 4)",
+            Grid::Reduced => "IA off/on × 10, 25, 50, 75, 100 % of the views (paper Table 4)",
             Grid::Degraded => "IA off/on × five degradations, main strength (paper Table 4)",
             Grid::DegradedMild => "IA off/on × five degradations, milder strength (appendix)",
             Grid::Pareto => "Chamfer against wall time: one factor at a time + presets",
@@ -406,7 +406,7 @@ pub fn expand(opts: &StudyOptions, base: &RunConfig) -> Vec<RunDraft> {
             false,
             vec![AugMode::None, AugMode::Dia, AugMode::Sia],
         )],
-        Grid::Reduced => [0.10, 0.25, 0.50, 0.75]
+        Grid::Reduced => [0.10, 0.25, 0.50, 0.75, 1.0]
             .into_iter()
             .map(|f| {
                 (

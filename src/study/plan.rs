@@ -246,6 +246,11 @@ impl StudyPlan {
         toml::to_string_pretty(self).expect("plans serialise")
     }
 
+    /// The run ids, in plan order.
+    pub fn ids(&self) -> Vec<&str> {
+        self.runs.iter().map(|r| r.id.as_str()).collect()
+    }
+
     /// The run called `id`.
     pub fn run(&self, id: &str) -> Option<&RunSpec> {
         self.runs.iter().find(|r| r.id == id)
@@ -472,16 +477,55 @@ pub fn sync_records(dir: &Path, plan: &StudyPlan) -> Result<usize, StudyError> {
     if records == before {
         return Ok(records.len());
     }
-    let mut text = String::new();
-    let order = plan.runs.iter().map(|s| &s.id);
-    for id in order.chain(records.keys().filter(|k| plan.run(k).is_none())) {
-        if let Some(r) = records.get(id) {
-            text.push_str(&serde_json::to_string(r).expect("records serialise"));
-            text.push('\n');
+    store::write(dir, &plan.ids(), &records)?;
+    Ok(records.len())
+}
+
+/// Copies into `dir`'s records the record of every planned run that has neither a folder nor
+/// a record there but whose configuration another study already ran: a record in one of
+/// `sources` (study folders, or their `records.jsonl`) of the same configuration (the same
+/// [`config_hash`]), under this plan's run id. The reduced grid's 100 % cells are Table 2's runs
+/// of the same scene, seed and arm, for example. Returns how many it copied.
+pub fn import_records(
+    dir: &Path,
+    plan: &StudyPlan,
+    sources: &[PathBuf],
+) -> Result<usize, StudyError> {
+    let mut have = store::read(dir)?;
+    let mut by_hash: BTreeMap<String, store::StoredRun> = BTreeMap::new();
+    for src in sources {
+        let folder = if src.is_file() {
+            src.parent().unwrap_or(Path::new(".")).to_path_buf()
+        } else {
+            src.clone()
+        };
+        if !folder.join(store::RECORDS_FILE).is_file() {
+            return Err(StudyError::Folder {
+                dir: folder,
+                problem: format!("no {} to reuse records from", store::RECORDS_FILE),
+            });
+        }
+        for (id, r) in store::read(&folder)? {
+            let origin = folder.join(store::RECORDS_FILE).join(&id);
+            by_hash.entry(config_hash_of_toml(&r.config, &origin)?).or_insert(r);
         }
     }
-    write_atomic(&dir.join(store::RECORDS_FILE), text.as_bytes())?;
-    Ok(records.len())
+    let mut copied = 0;
+    for spec in &plan.runs {
+        if have.contains_key(&spec.id) || run_dir(dir, &spec.id).join("config.toml").is_file() {
+            continue;
+        }
+        if let Some(r) = by_hash.get(&spec.config_hash) {
+            let mut r = r.clone();
+            r.id = spec.id.clone();
+            have.insert(spec.id.clone(), r);
+            copied += 1;
+        }
+    }
+    if copied > 0 {
+        store::write(dir, &plan.ids(), &have)?;
+    }
+    Ok(copied)
 }
 
 #[cfg(test)]

@@ -17,6 +17,9 @@ pub const LOCK_FILE: &str = "study.lock";
 pub struct ExecOptions {
     /// No progress output from the runs (the study still prints one line per run).
     pub quiet: bool,
+    /// Other studies whose records of the same configurations count as runs of this one
+    /// ([`super::plan::import_records`]).
+    pub reuse_records: Vec<std::path::PathBuf>,
 }
 
 /// What [`execute`] did.
@@ -99,7 +102,14 @@ pub fn execute(
     opts: &ExecOptions,
 ) -> Result<ExecSummary, StudyError> {
     let _lock = StudyLock::acquire(dir)?;
-    let states = open_folder(dir, plan, cfgs, base_src)?;
+    let mut states = open_folder(dir, plan, cfgs, base_src)?;
+    if !opts.reuse_records.is_empty() {
+        let n = super::plan::import_records(dir, plan, &opts.reuse_records)?;
+        if n > 0 {
+            log(dir, &format!("reused {n} records of other studies"))?;
+            states = open_folder(dir, plan, cfgs, base_src)?;
+        }
+    }
     let total = plan.runs.len();
     let todo = states.iter().filter(|s| **s != RunState::Done).count();
     eprintln!(

@@ -5,7 +5,7 @@
 //! run with a record is finished) and its report rebuilt from the plan and the records alone.
 
 use super::confighash::config_hash_of_toml;
-use super::{io_err, StudyError};
+use super::{io_err, write_atomic, StudyError};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -68,4 +68,22 @@ pub fn planned_record<'a>(
         });
     }
     Ok(Some(r))
+}
+
+/// Writes `records` to `dir/records.jsonl` in the order of `ids` (a plan's run ids), records of
+/// other ids after them, by id.
+pub fn write(
+    dir: &Path,
+    ids: &[&str],
+    records: &BTreeMap<String, StoredRun>,
+) -> Result<(), StudyError> {
+    let mut text = String::new();
+    let others = records.keys().map(String::as_str).filter(|k| !ids.contains(k));
+    for id in ids.iter().copied().chain(others) {
+        if let Some(r) = records.get(id) {
+            text.push_str(&serde_json::to_string(r).expect("records serialise"));
+            text.push('\n');
+        }
+    }
+    write_atomic(&dir.join(RECORDS_FILE), text.as_bytes())
 }

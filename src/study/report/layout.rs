@@ -45,6 +45,9 @@ pub(super) fn m_comp(r: &RunRecord) -> Option<f64> {
 pub(super) fn m_psnr(r: &RunRecord) -> Option<f64> {
     r.psnr
 }
+pub(super) fn m_ssim(r: &RunRecord) -> Option<f64> {
+    r.ssim
+}
 pub(super) fn m_train(r: &RunRecord) -> Option<f64> {
     Some(r.time_train).filter(|_| !r.reused_training)
 }

@@ -6,7 +6,9 @@ use super::format::{
     arm_header, arm_rows, first_column, fmt_opt, fmt_time, intro, md_table, paired_section,
     rank_marks,
 };
-use super::layout::{all_values, m_acc, m_chamfer, m_comp, m_psnr, m_train, Layout, Row};
+use super::layout::{
+    all_values, m_acc, m_chamfer, m_comp, m_psnr, m_ssim, m_train, Layout, Row,
+};
 use super::pareto::ParetoRow;
 use super::DiffSummary;
 use crate::augment::AugMode;
@@ -119,11 +121,19 @@ pub(super) fn report_md(
     if o.grid == Grid::Table2 && lay.has_baseline_and_others() {
         super::paper::paper_section(&mut md, lay);
     }
+    // Against the paper's robustness table (reduced data, degradations).
+    if matches!(o.grid, Grid::Reduced | Grid::Degraded) && lay.has_baseline_and_others() {
+        super::paper::robustness_section(&mut md, lay, o.grid == Grid::Degraded);
+    }
 
-    // Held-out PSNR.
-    let _ = writeln!(md, "## Held-out views: PSNR (dB, higher is better)\n");
+    // Held-out PSNR and SSIM.
+    let _ = writeln!(md, "## Held-out views: PSNR (dB) / SSIM (higher is better)\n");
     let t = arm_rows(rows, &lay.arms, |r, a| {
-        fmt_opt(lay.row_mean(r, a, m_psnr), 2)
+        format!(
+            "{} / {}",
+            fmt_opt(lay.row_mean(r, a, m_psnr), 2),
+            fmt_opt(lay.row_mean(r, a, m_ssim), 4)
+        )
     });
     md_table(&mut md, &arm_header(first_col), &t);
 
