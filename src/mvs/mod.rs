@@ -381,8 +381,6 @@ impl DepthMaps {
     }
 }
 
-/// What the depth prior did in one step.
-
 /// A view as the stereo sees it.
 struct View {
     w: usize,
@@ -474,8 +472,7 @@ fn box_sum(s: &[f64], w: usize, x0: usize, y0: usize, x1: usize, y1: usize) -> f
 }
 
 /// The depth maps of every view: `cameras[i]` (normalised frame) took `images[i]`; `masks`
-/// (optional) limit the pixels looked at. See the module doc for the three steps.
-
+/// (optional) limit the pixels looked at. See the module doc for the steps.
 pub fn depth_maps(
     cfg: &MvsConfig,
     cameras: &[Camera],

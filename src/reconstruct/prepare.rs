@@ -8,6 +8,7 @@ use super::scene_ref::{resolve_scene, ResolvedScene};
 use super::{output_dir, say, ReconstructError, RunConfig, RunOptions};
 use crate::augment::{degrade_views, views_fraction, AugSampler};
 use crate::render::model::NeusModel;
+use crate::render::rays::ray_aabb;
 use crate::render::BackgroundKind;
 use crate::scene::{Camera, GrayImage, LoadOptions, RgbImage, Scene};
 use crate::train::hull::{self, HullError, HullSdf, InitKind};
@@ -110,6 +111,7 @@ pub(super) fn prepare(cfg: &RunConfig, opts: &RunOptions) -> Result<Prepared, Re
         .iter()
         .map(|&i| scene.views[i].camera.clone())
         .collect();
+    check_rays_meet_region(&cameras, cfg.model.render.radius)?;
     let input_digest = digest(&scene, &train_idx);
     let all_masked = cfg.data.masks && masks.is_some();
     if !all_masked && cfg.model.background.kind == BackgroundKind::None {
@@ -217,4 +219,31 @@ fn digest(scene: &Scene, train_idx: &[usize]) -> String {
         h.write(&bytes);
     }
     h.hex()
+}
+
+/// Refuses a run in which no training ray meets the box `[-r, r]³` of the normalised frame
+/// (a grid of 17 × 17 pixels of every camera is tried): the region is not in front of any
+/// camera, and training would see nothing.
+fn check_rays_meet_region(cameras: &[Camera], r: f32) -> Result<(), ReconstructError> {
+    const N: u32 = 17;
+    let meets = cameras.iter().any(|c| {
+        (0..N * N).any(|k| {
+            let u = (k % N) as f64 / (N - 1) as f64 * c.width as f64;
+            let v = (k / N) as f64 / (N - 1) as f64 * c.height as f64;
+            let (o, d) = c.ray(u, v);
+            let f = |x: nalgebra::Vector3<f64>| [x.x as f32, x.y as f32, x.z as f32];
+            ray_aabb(f(o), f(d), r).is_some()
+        })
+    });
+    if meets {
+        Ok(())
+    } else {
+        Err(ReconstructError::NothingTrained(format!(
+            "no ray of the {} training cameras meets the reconstruction region (the box of \
+             half-width {r} about the origin of the normalised frame, which cameras_sphere.npz's \
+             scale_mat defines): the object is not in front of the cameras; check the \
+             normalisation (for an import, its --roi-center / --roi-radius)",
+            cameras.len()
+        )))
+    }
 }

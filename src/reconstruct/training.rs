@@ -10,7 +10,6 @@ use super::progress::Progress;
 use super::{say, write_atomic, ReconstructError, RunConfig, RunOptions};
 use crate::mvs::{self, DepthMapsSummary};
 use crate::render::model::NeusModel;
-use crate::render::rays::ray_aabb;
 use crate::scene::Camera;
 use crate::train::checkpoint::{self, TrainState};
 use crate::train::depth::{DepthConfig, DepthPrior};
@@ -38,7 +37,6 @@ pub(super) fn train(
     let quiet = opts.quiet;
     let (model, data) = (&p.model, &p.data);
     let cameras: Vec<Camera> = p.cameras().into_iter().cloned().collect();
-    check_rays_meet_region(&cameras, model.config.render.radius)?;
     let mut trainer = Trainer::new(
         model,
         data,
@@ -166,33 +164,6 @@ pub(super) fn train(
         summary,
         secs,
     })
-}
-
-/// Refuses a run in which no training ray meets the box `[-r, r]³` of the normalised frame
-/// (a grid of 17 × 17 pixels of every camera is tried): the region is not in front of any
-/// camera, and training would see nothing.
-fn check_rays_meet_region(cameras: &[Camera], r: f32) -> Result<(), ReconstructError> {
-    const N: u32 = 17;
-    let meets = cameras.iter().any(|c| {
-        (0..N * N).any(|k| {
-            let u = (k % N) as f64 / (N - 1) as f64 * c.width as f64;
-            let v = (k / N) as f64 / (N - 1) as f64 * c.height as f64;
-            let (o, d) = c.ray(u, v);
-            let f = |x: nalgebra::Vector3<f64>| [x.x as f32, x.y as f32, x.z as f32];
-            ray_aabb(f(o), f(d), r).is_some()
-        })
-    });
-    if meets {
-        Ok(())
-    } else {
-        Err(ReconstructError::NothingTrained(format!(
-            "no ray of the {} training cameras meets the reconstruction region (the box of \
-             half-width {r} about the origin of the normalised frame, which cameras_sphere.npz's \
-             scale_mat defines): the object is not in front of the cameras; check the \
-             normalisation (for an import, its --roi-center / --roi-radius)",
-            cameras.len()
-        )))
-    }
 }
 
 /// The visual-hull start (`train::hull`), when the start is the hull: the SDF fitted to it.

@@ -507,7 +507,9 @@ pub fn import_records(
         }
         for (id, r) in store::read(&folder)? {
             let origin = folder.join(store::RECORDS_FILE).join(&id);
-            by_hash.entry(config_hash_of_toml(&r.config, &origin)?).or_insert(r);
+            by_hash
+                .entry(config_hash_of_toml(&r.config, &origin)?)
+                .or_insert(r);
         }
     }
     let mut copied = 0;

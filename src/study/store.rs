@@ -78,7 +78,10 @@ pub fn write(
     records: &BTreeMap<String, StoredRun>,
 ) -> Result<(), StudyError> {
     let mut text = String::new();
-    let others = records.keys().map(String::as_str).filter(|k| !ids.contains(k));
+    let others = records
+        .keys()
+        .map(String::as_str)
+        .filter(|k| !ids.contains(k));
     for id in ids.iter().copied().chain(others) {
         if let Some(r) = records.get(id) {
             text.push_str(&serde_json::to_string(r).expect("records serialise"));

@@ -45,7 +45,6 @@ pub fn tiny_config() -> ModelConfig {
                 code_dim: 2,
                 with_scalar: true,
             },
-            ..Default::default()
         },
         render: RenderConfig {
             num_samples_per_ray: 24,

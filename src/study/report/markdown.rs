@@ -6,9 +6,7 @@ use super::format::{
     arm_header, arm_rows, first_column, fmt_opt, fmt_time, intro, md_table, paired_section,
     rank_marks,
 };
-use super::layout::{
-    all_values, m_acc, m_chamfer, m_comp, m_psnr, m_ssim, m_train, Layout, Row,
-};
+use super::layout::{all_values, m_acc, m_chamfer, m_comp, m_psnr, m_ssim, m_train, Layout, Row};
 use super::pareto::ParetoRow;
 use super::DiffSummary;
 use crate::augment::AugMode;
@@ -127,7 +125,10 @@ pub(super) fn report_md(
     }
 
     // Held-out PSNR and SSIM.
-    let _ = writeln!(md, "## Held-out views: PSNR (dB) / SSIM (higher is better)\n");
+    let _ = writeln!(
+        md,
+        "## Held-out views: PSNR (dB) / SSIM (higher is better)\n"
+    );
     let t = arm_rows(rows, &lay.arms, |r, a| {
         format!(
             "{} / {}",

@@ -96,9 +96,10 @@ pub(super) fn robustness_section(md: &mut String, lay: &Layout<'_>, degraded: bo
     let mut t = Vec::new();
     let mut verdicts = Vec::new();
     for cond in &lay.conditions {
-        let Some(&(_, pb, pa)) = table.iter().find(|(k, _, _)| {
-            cond == k || cond.split(':').next() == Some(*k)
-        }) else {
+        let Some(&(_, pb, pa)) = table
+            .iter()
+            .find(|(k, _, _)| cond == k || cond.split(':').next() == Some(*k))
+        else {
             continue;
         };
         let row = Row {
@@ -129,8 +130,16 @@ pub(super) fn robustness_section(md: &mut String, lay: &Layout<'_>, degraded: bo
         &t,
     );
     let all = verdicts.len();
-    let agree = verdicts.iter().flatten().filter(|v| v.starts_with("agrees")).count();
-    let disagree = verdicts.iter().flatten().filter(|v| v.starts_with("disagrees")).count();
+    let agree = verdicts
+        .iter()
+        .flatten()
+        .filter(|v| v.starts_with("agrees"))
+        .count();
+    let disagree = verdicts
+        .iter()
+        .flatten()
+        .filter(|v| v.starts_with("disagrees"))
+        .count();
     let claim = if all == 0 {
         "no condition yet".to_string()
     } else if verdicts.iter().any(|v| v.is_none()) {
