@@ -75,6 +75,10 @@ pub struct StudyArgs {
     /// one (repeatable): e.g. the reduced grid's 100 % cells from a Table 2 study.
     #[arg(long, value_name = "DIR")]
     pub reuse_records: Vec<PathBuf>,
+    /// Run at most N of the unfinished runs (seed-major plan order), then write the report and
+    /// stop; the next call continues.
+    #[arg(long, value_name = "N")]
+    pub runs: Option<usize>,
 }
 
 pub fn run(args: StudyArgs) -> anyhow::Result<()> {
@@ -164,6 +168,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         &study::ExecOptions {
             quiet: args.quiet,
             reuse_records: args.reuse_records.clone(),
+            max_runs: args.runs,
         },
     )
     .with_context(|| format!("study {} in {}", g, dir.display()))?;

@@ -1,7 +1,7 @@
 //! The grids: which runs each experiment consists of.
 //!
 //! A grid expands [`StudyOptions`] into [`RunDraft`]s, one per (condition, scene, arm, seed), in
-//! a fixed order (condition, scene, seed, arm) that the tables and the job list keep.
+//! a fixed order (seed, condition, scene, arm) that the tables and the job list keep.
 
 use super::StudyError;
 use crate::augment::{AugMode, Degradation, DegradationKind};
@@ -498,6 +498,9 @@ pub fn expand(opts: &StudyOptions, base: &RunConfig) -> Vec<RunDraft> {
             }
         }
     }
+    // Seed-major: every cell's first seed before any cell's second, so a study stopped early
+    // (or run a slice at a time, `--runs`) has every cell at the same count of seeds.
+    out.sort_by_key(|d| d.seed);
     out
 }
 

@@ -279,8 +279,11 @@ impl StudyPlan {
             b.base_config.to_string(),
         );
         opt("--set", a.sets.join(" "), b.sets.join(" "));
-        let ids_a: Vec<&str> = self.runs.iter().map(|r| r.id.as_str()).collect();
-        let ids_b: Vec<&str> = other.runs.iter().map(|r| r.id.as_str()).collect();
+        // The same runs (in whatever order an older build listed them).
+        let ids_a: std::collections::BTreeSet<&str> =
+            self.runs.iter().map(|r| r.id.as_str()).collect();
+        let ids_b: std::collections::BTreeSet<&str> =
+            other.runs.iter().map(|r| r.id.as_str()).collect();
         if ids_a != ids_b {
             d.push(format!(
                 "runs: {} planned → {} requested",
@@ -290,8 +293,9 @@ impl StudyPlan {
         }
         // A format-1 plan's hashes were of the text, which this program writes otherwise.
         let comparable = self.format == other.format;
-        for (x, y) in self.runs.iter().zip(&other.runs) {
-            if comparable && x.id == y.id && x.config_hash != y.config_hash {
+        for y in &other.runs {
+            let Some(x) = self.run(&y.id) else { continue };
+            if comparable && x.config_hash != y.config_hash {
                 d.push(format!(
                     "run {}: resolved configuration {} → {} (a different base config or program version)",
                     x.id, x.config_hash, y.config_hash
@@ -378,7 +382,7 @@ pub fn open_folder(
     if plan_path.is_file() {
         let stored = StudyPlan::load(dir)?;
         let diff = stored.differences(plan, 12);
-        if diff.is_empty() && stored.format != plan.format {
+        if diff.is_empty() && (stored.format != plan.format || stored.ids() != plan.ids()) {
             write_atomic(&plan_path, plan.to_toml().as_bytes())?;
         }
         if !diff.is_empty() {

@@ -20,6 +20,9 @@ pub struct ExecOptions {
     /// Other studies whose records of the same configurations count as runs of this one
     /// ([`super::plan::import_records`]).
     pub reuse_records: Vec<std::path::PathBuf>,
+    /// Run at most this many unfinished runs (in plan order), then write the report and stop:
+    /// a slice of a long grid, so several grids can advance in turn.
+    pub max_runs: Option<usize>,
 }
 
 /// What [`execute`] did.
@@ -126,6 +129,12 @@ pub fn execute(
         if *state == RunState::Done {
             summary.skipped.push(spec.id.clone());
             continue;
+        }
+        if opts
+            .max_runs
+            .is_some_and(|m| summary.ran.len() + summary.failed.len() >= m)
+        {
+            break;
         }
         if let Some(src) = &spec.reuse_training_of {
             if reuse_checkpoint(dir, src, &spec.id)? {
