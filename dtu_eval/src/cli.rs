@@ -164,6 +164,10 @@ fn run_dtu(args: &EvalArgs, scan: u32, root: &Path) -> Result<Report, EvalError>
     drop(samples);
     eval.counts.mesh_vertices = mesh.vertices.len() as u64;
     eval.counts.mesh_faces = mesh.faces.len() as u64;
+    if args.dump_dir.is_some() {
+        // The dumps list every distance, those at or beyond max_dist (not searched) included.
+        eval.exact_outliers(&gt)?;
+    }
     let report = dtu_report(args, scan, root, &params, &eval);
     write_outputs_dtu(args, scan, &eval, &gt, &params, &report)?;
     Ok(report)
@@ -248,7 +252,11 @@ fn run_plain(args: &EvalArgs, reference: &Path) -> Result<Report, EvalError> {
     let (data, _) = read_as_points(&args.mesh, args)?;
     let (refp, _) = read_as_points(reference, args)?;
     sw.lap("read_and_sample");
-    let eval = plain::evaluate_points(data, refp, &params, args.seed, sw)?;
+    let mut eval = plain::evaluate_points(data, refp, &params, args.seed, sw)?;
+    if args.dump_dir.is_some() {
+        // The dumps list every distance, those at or beyond max_dist (not searched) included.
+        eval.exact_outliers()?;
+    }
     let report = Report {
         mean_d2s: eval.mean_d2s,
         mean_s2d: eval.mean_s2d,

@@ -187,17 +187,69 @@ impl Plane {
 }
 
 fn parse(path: &Path) -> Result<matfile::MatFile, GtError> {
-    let file = std::fs::File::open(path).map_err(|source| GtError::Io {
+    let bytes = std::fs::read(path).map_err(|source| GtError::Io {
         path: path.into(),
         source,
     })?;
-    matfile::MatFile::parse(std::io::BufReader::new(file)).map_err(|e| GtError::Parse {
+    let parse_err = |message: String| GtError::Parse {
         path: path.into(),
-        message: match truncation(path) {
+        message,
+    };
+    if let Some(why) = header_problem(&bytes) {
+        return Err(parse_err(why));
+    }
+    matfile::MatFile::parse(bytes.as_slice()).map_err(|e| {
+        parse_err(match truncation(&bytes) {
             Some(why) => format!("the file is truncated ({why}); copy it again"),
-            None => format!("{e:?}"),
-        },
+            // matfile's Debug form dumps the bytes it stopped at; its Display form says what
+            // kind of failure it was.
+            None => format!("its data elements do not parse ({e}); the file is damaged"),
+        })
     })
+}
+
+/// Why `bytes` do not start like a MATLAB v5 file, if they do not: the 128-byte header ends
+/// with the version and the endian indicator `IM` (little endian) or `MI` (big endian)
+/// ("MAT-File Format", MathWorks, 2023: "MAT-File Header Format"). A short file whose text
+/// begins "MATLAB" is a truncated one; a version 7.3 file is HDF5, which `matfile` does not read.
+fn header_problem(bytes: &[u8]) -> Option<String> {
+    let looks_matlab = bytes.starts_with(b"MATLAB");
+    if bytes.len() < 128 {
+        return Some(if looks_matlab {
+            format!(
+                "the file is truncated ({} bytes, less than the 128-byte header); copy it again",
+                bytes.len()
+            )
+        } else {
+            format!(
+                "{} bytes, less than the 128-byte MATLAB header, and not starting with 'MATLAB': \
+                 not a .mat file",
+                bytes.len()
+            )
+        });
+    }
+    if bytes.starts_with(b"MATLAB 7.3") {
+        return Some(
+            "it is a MATLAB 7.3 file (HDF5), which cannot be read; save it again with \
+             `save(..., '-v7')`"
+                .into(),
+        );
+    }
+    let indicator = &bytes[126..128];
+    if indicator != b"IM" && indicator != b"MI" {
+        return Some(format!(
+            "no MATLAB v5 header: bytes 126-127 are {:#04x} {:#04x}, not the endian indicator \
+             'IM' or 'MI'{}",
+            indicator[0],
+            indicator[1],
+            if looks_matlab {
+                ""
+            } else {
+                ", and the file does not start with 'MATLAB'"
+            }
+        ));
+    }
+    None
 }
 
 fn find<'a>(
@@ -205,8 +257,8 @@ fn find<'a>(
     path: &Path,
     name: &str,
 ) -> Result<&'a matfile::Array, GtError> {
-    mat.find_by_name(name)
-        .ok_or_else(|| match truncation(path) {
+    mat.find_by_name(name).ok_or_else(|| {
+        match std::fs::read(path).ok().and_then(|b| truncation(&b)) {
             // matfile stops quietly at a cut-off element, so a truncated file looks like one whose
             // variables are missing; say what is really wrong.
             Some(why) => GtError::Parse {
@@ -214,15 +266,15 @@ fn find<'a>(
                 message: format!("the file is truncated ({why}); copy it again"),
             },
             None => var_err(path, name, "is missing".into()),
-        })
+        }
+    })
 }
 
 /// Why a MATLAB v5 file is cut short, if it is: walks the top-level data elements (8-byte tag:
 /// type and byte count, little- or big-endian per the header's `IM`/`MI` indicator; elements are
 /// padded to 8 bytes except `miCOMPRESSED`, type 15) and reports the first one whose declared
 /// size runs past the end of the file.
-fn truncation(path: &Path) -> Option<String> {
-    let bytes = std::fs::read(path).ok()?;
+fn truncation(bytes: &[u8]) -> Option<String> {
     if bytes.len() < 128 {
         return Some(format!(
             "{} bytes, less than the 128-byte header",
@@ -459,15 +511,56 @@ mod tests {
             res: 1.0,
         };
         mask.write(&path).unwrap();
-        assert!(truncation(&path).is_none(), "a whole file is not truncated");
         let bytes = std::fs::read(&path).unwrap();
-        for cut in [bytes.len() - 3, bytes.len() / 2, 150] {
+        assert!(
+            truncation(&bytes).is_none(),
+            "a whole file is not truncated"
+        );
+        for cut in [bytes.len() - 3, bytes.len() / 2, 150, 100] {
             std::fs::write(&path, &bytes[..cut]).unwrap();
             let err = ObsMask::read(&path).unwrap_err().to_string();
             assert!(
                 err.contains("truncated") && !err.contains("missing"),
                 "cut at {cut}: {err}"
             );
+        }
+    }
+
+    #[test]
+    fn random_bytes_and_other_formats_say_what_is_wrong_without_parser_dumps() {
+        use rand::{Rng, SeedableRng};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("Plane24.mat");
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let random: Vec<u8> = (0..3000).map(|_| rng.random()).collect();
+        let mut v73 = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: ...".to_vec();
+        v73.resize(512, b' ');
+        v73.extend_from_slice(b"\x89HDF\r\n\x1a\n");
+        // A valid header over random data elements.
+        let mut damaged = std::fs::read({
+            Plane([0.0, 0.0, 1.0, -1.0]).write(&path).unwrap();
+            &path
+        })
+        .unwrap();
+        damaged.truncate(128);
+        damaged.extend_from_slice(&[14, 0, 0, 0, 24, 0, 0, 0]);
+        damaged.extend_from_slice(&random[..24]);
+        for (bytes, expect) in [
+            (random.clone(), "bytes 126-127"),
+            (random[..100].to_vec(), "not a .mat file"),
+            (v73, "MATLAB 7.3"),
+            (damaged, "do not parse"),
+        ] {
+            std::fs::write(&path, &bytes).unwrap();
+            let err = crate::error::error_chain(&Plane::read(&path).unwrap_err());
+            assert!(
+                err.contains("Plane24.mat") && err.contains(expect),
+                "{expect}: {err}"
+            );
+            for raw in ["ParseError", "input:", "code:"] {
+                assert!(!err.contains(raw), "a parser dump in {err}");
+            }
+            assert!(err.len() < 300, "{err}");
         }
     }
 

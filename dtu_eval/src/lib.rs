@@ -4,7 +4,8 @@
 //!
 //! Modules in data-flow order: [`ply`] and [`gt`] read the inputs; [`sample`] samples the mesh
 //! surface; [`downsample`] shuffles and thins it; [`nn`] answers nearest-neighbour queries on a
-//! k-d tree; [`protocol`] chains DTU's stages ([`plain`] is the mask-free variant); [`report`]
+//! k-d tree, and [`boxtree`] the distances below the outlier cut on a tree of tight boxes;
+//! [`protocol`] chains DTU's stages ([`plain`] is the mask-free variant); [`report`]
 //! holds the figures; [`vis`] writes error-coloured clouds; [`cli`] is the shared command line;
 //! [`atomic`] is the one atomic file writer of the workspace.
 //!
@@ -19,6 +20,7 @@
 //! ```
 
 pub mod atomic;
+pub mod boxtree;
 pub mod cli;
 pub mod downsample;
 pub mod error;

@@ -6,10 +6,10 @@
 //! distances line up with the files. `max_dist` (if any) leaves distances `>= max_dist` out of
 //! the means, as DTU's 20 mm cut.
 
+use crate::boxtree::BoxTree;
 use crate::downsample::{radius_downsample, select, shuffle};
 use crate::error::EvalError;
-use crate::nn::PointTree;
-use crate::protocol::{check_positive, mean_below};
+use crate::protocol::{check_positive, mean_below, with_smallest_distance};
 use crate::report::{PlainCounts, PlainParams, StageTime, Stopwatch};
 
 /// Seed offset for the reference set's shuffle, so the two sets do not share a permutation.
@@ -27,11 +27,37 @@ pub struct PlainEvaluation {
     pub data: Vec<[f32; 3]>,
     /// The reference points used.
     pub reference: Vec<[f32; 3]>,
-    /// Per data point: distance to the nearest reference point.
+    /// Per data point: distance to the nearest reference point, or `+inf` where a `max_dist`
+    /// is set and the distance is `>= max_dist` (not searched further;
+    /// [`Self::exact_outliers`] fills them in).
     pub d2s: Vec<f64>,
-    /// Per reference point: distance to the nearest data point.
+    /// Per reference point: distance to the nearest data point (`+inf` as `d2s`).
     pub s2d: Vec<f64>,
     pub stages: Vec<StageTime>,
+}
+
+impl PlainEvaluation {
+    /// Replaces the `+inf` of `d2s` and `s2d` by the exact distances (unbounded search of those
+    /// points only), for output that lists every distance (`--dump-dir`).
+    pub fn exact_outliers(&mut self) -> Result<(), EvalError> {
+        let tree_err = |what: &'static str| {
+            move |source| EvalError::Tree {
+                what: what.into(),
+                source,
+            }
+        };
+        if self.d2s.iter().any(|d| d.is_infinite()) {
+            BoxTree::new(&self.reference)
+                .map_err(tree_err("reference points"))?
+                .fill_infinite(&self.data, &mut self.d2s);
+        }
+        if self.s2d.iter().any(|d| d.is_infinite()) {
+            BoxTree::new(&self.data)
+                .map_err(tree_err("data points"))?
+                .fill_infinite(&self.reference, &mut self.s2d);
+        }
+        Ok(())
+    }
 }
 
 /// Checks the plain mode's parameters.
@@ -77,17 +103,19 @@ pub fn evaluate_points(
         reference = select(&reference, &keep);
         sw.lap("downsample");
     }
-    let ref_tree = PointTree::new(&reference).map_err(tree_err("reference points"))?;
-    let d2s = ref_tree.nearest_distances(&data);
+    let max = params.max_dist.unwrap_or(f64::INFINITY);
+    let ref_tree = BoxTree::new(&reference).map_err(tree_err("reference points"))?;
+    let d2s = ref_tree.nearest_distances_below(&data, max);
     drop(ref_tree);
     sw.lap("d2s");
-    let data_tree = PointTree::new(&data).map_err(tree_err("data points"))?;
-    let s2d = data_tree.nearest_distances(&reference);
+    let data_tree = BoxTree::new(&data).map_err(tree_err("data points"))?;
+    let s2d = data_tree.nearest_distances_below(&reference, max);
     drop(data_tree);
     sw.lap("s2d");
-    let max = params.max_dist.unwrap_or(f64::INFINITY);
-    let (mean_d2s, d2s_below) = mean_below(&d2s, max, "accuracy (d2s, data -> reference)")?;
-    let (mean_s2d, s2d_below) = mean_below(&s2d, max, "completeness (s2d, reference -> data)")?;
+    let (mean_d2s, d2s_below) = mean_below(&d2s, max, "accuracy (d2s, data -> reference)")
+        .map_err(|e| with_smallest_distance(e, &reference, &data))?;
+    let (mean_s2d, s2d_below) = mean_below(&s2d, max, "completeness (s2d, reference -> data)")
+        .map_err(|e| with_smallest_distance(e, &data, &reference))?;
     sw.lap("means");
     Ok(PlainEvaluation {
         mean_d2s,

@@ -116,7 +116,28 @@ fn parse(path: &Path) -> Result<Parsed, PlyError> {
         path: path.into(),
         message: e.to_string(),
     };
-    let mut reader = Reader::new(BufReader::with_capacity(1 << 20, file));
+    let mut buffered = BufReader::with_capacity(1 << 20, file);
+    let head = std::io::BufRead::fill_buf(&mut buffered).map_err(|source| PlyError::Io {
+        path: path.into(),
+        source,
+    })?;
+    // Every PLY file opens with the line "ply" (Turk's format description); without it the
+    // parser's complaint is about whatever bytes it met first.
+    if !(head.starts_with(b"ply\n") || head.starts_with(b"ply\r\n")) {
+        let shown: String = head
+            .iter()
+            .take(16)
+            .map(|&b| std::ascii::escape_default(b).to_string())
+            .collect();
+        return Err(PlyError::Parse {
+            path: path.into(),
+            message: format!(
+                "it does not start with the line 'ply' that opens every PLY file (its first \
+                 bytes: \"{shown}\")"
+            ),
+        });
+    }
+    let mut reader = Reader::new(buffered);
     let vertex_parser = Parser::<VertexIn>::new();
     let header: Header = vertex_parser.read_header(&mut reader).map_err(parse_err)?;
     let mut vertices = None;
@@ -404,6 +425,9 @@ mod tests {
             }
             let err = read_mesh(&path).unwrap_err().to_string();
             assert!(err.contains(name), "{name}: {err}");
+            if name == "garbage.ply" {
+                assert!(err.contains("does not start with the line 'ply'"), "{err}");
+            }
         }
     }
 }

@@ -11,14 +11,19 @@
 //! 6. `mean_d2s` = mean of `d2s < max_dist`, `mean_s2d` = mean of `s2d < max_dist` (strict),
 //!    `overall` = their mean (DTUeval-python), `chamfer_sum` = their sum (the paper).
 //!
+//! Steps 4 and 5 search no farther than `max_dist` ([`crate::boxtree`]): a distance at or beyond
+//! it, which step 6 leaves out anyway, is recorded as `+inf`, so a mesh far from the reference
+//! costs little more than a close one, and the means are those of an unbounded search bit for
+//! bit. [`DtuEvaluation::exact_outliers`] computes the left-out distances where they are wanted.
+//!
 //! Frames and units: everything is DTU world coordinates, millimetres. Coordinates are `f32`;
 //! distances and means are `f64` (see [`crate::nn`]).
 
+use crate::boxtree::BoxTree;
 use crate::downsample::{radius_downsample, select, shuffle};
 use crate::error::EvalError;
 use crate::gt::{GtPaths, ObsMask, Plane};
 use crate::mesh::{bounds, TriMesh};
-use crate::nn::PointTree;
 use crate::report::{DtuCounts, DtuParams, StageTime, Stopwatch};
 use crate::sample::{sample_count_bound, sample_mesh};
 use rayon::prelude::*;
@@ -218,6 +223,32 @@ pub fn mean_below(
     Ok((sum / n as f64, n))
 }
 
+/// A [`EvalError::NoneBelowMaxDist`] of a bounded search (every distance `+inf`, none searched
+/// past `max_dist`) with the smallest distance from `queries` to `points` filled in, so the
+/// message says how far apart the sets are; other errors pass through.
+pub(crate) fn with_smallest_distance(
+    e: EvalError,
+    points: &[[f32; 3]],
+    queries: &[[f32; 3]],
+) -> EvalError {
+    match e {
+        EvalError::NoneBelowMaxDist {
+            direction,
+            n,
+            max_dist,
+            min,
+        } if min.is_infinite() && !queries.is_empty() => EvalError::NoneBelowMaxDist {
+            direction,
+            n,
+            max_dist,
+            min: BoxTree::new(points)
+                .map(|t| t.smallest_distance(queries, max_dist))
+                .unwrap_or(min),
+        },
+        e => e,
+    }
+}
+
 /// Everything the protocol computed for one mesh.
 #[derive(Clone, Debug)]
 pub struct DtuEvaluation {
@@ -234,11 +265,14 @@ pub struct DtuEvaluation {
     pub in_box: Vec<bool>,
     /// Per `data_down` point: observed (`data_in_obs`).
     pub in_obs: Vec<bool>,
-    /// Per observed point, in `data_down` order: distance to the nearest GT point (mm).
+    /// Per observed point, in `data_down` order: distance to the nearest GT point (mm), or
+    /// `+inf` where that distance is `>= max_dist` (the search stops at the outlier cut,
+    /// [`BoxTree::nearest_distances_below`]; [`Self::exact_outliers`] fills them in).
     pub d2s: Vec<f64>,
     /// Per GT point: above the plane.
     pub above: Vec<bool>,
-    /// Per GT point above the plane, in GT order: distance to the nearest `data_in` point (mm).
+    /// Per GT point above the plane, in GT order: distance to the nearest `data_in` point (mm),
+    /// or `+inf` where it is `>= max_dist` (as `d2s`).
     pub s2d: Vec<f64>,
     /// Stage timings.
     pub stages: Vec<StageTime>,
@@ -253,6 +287,30 @@ impl DtuEvaluation {
     /// `mean_d2s + mean_s2d`, the paper's Chamfer figure.
     pub fn chamfer_sum(&self) -> f64 {
         self.mean_d2s + self.mean_s2d
+    }
+
+    /// Replaces the `+inf` of `d2s` and `s2d` (distances at or beyond `max_dist`, not searched)
+    /// by the exact distances, with an unbounded search of those points only, for output that
+    /// lists every distance (`--dump-dir`). `gt` must be the ground truth evaluated against.
+    pub fn exact_outliers(&mut self, gt: &GroundTruth) -> Result<(), EvalError> {
+        let tree_err = |what: &str| {
+            let what = what.to_string();
+            move |source| EvalError::Tree { what, source }
+        };
+        if self.d2s.iter().any(|d| d.is_infinite()) {
+            let queries = select(&self.data_down, &self.in_obs);
+            BoxTree::new(&gt.points)
+                .map_err(tree_err("ground-truth points"))?
+                .fill_infinite(&queries, &mut self.d2s);
+        }
+        if self.s2d.iter().any(|d| d.is_infinite()) {
+            let data_in = select(&self.data_down, &self.in_box);
+            let gt_above = select(&gt.points, &self.above);
+            BoxTree::new(&data_in)
+                .map_err(tree_err("mesh points in the box"))?
+                .fill_infinite(&gt_above, &mut self.s2d);
+        }
+        Ok(())
     }
 }
 
@@ -306,8 +364,8 @@ pub fn evaluate_samples(
     }
     sw.lap("mask");
 
-    let gt_tree = PointTree::new(&gt.points).map_err(tree_err("ground-truth points"))?;
-    let d2s = gt_tree.nearest_distances(&data_in_obs);
+    let gt_tree = BoxTree::new(&gt.points).map_err(tree_err("ground-truth points"))?;
+    let d2s = gt_tree.nearest_distances_below(&data_in_obs, params.max_dist);
     drop(gt_tree);
     sw.lap("d2s");
 
@@ -323,14 +381,15 @@ pub fn evaluate_samples(
             ),
         });
     }
-    let data_tree = PointTree::new(&data_in).map_err(tree_err("mesh points in the box"))?;
-    let s2d = data_tree.nearest_distances(&gt_above);
+    let data_tree = BoxTree::new(&data_in).map_err(tree_err("mesh points in the box"))?;
+    let s2d = data_tree.nearest_distances_below(&gt_above, params.max_dist);
     drop(data_tree);
     sw.lap("s2d");
 
-    let (mean_d2s, d2s_below) = mean_below(&d2s, params.max_dist, "accuracy (d2s, mesh -> GT)")?;
-    let (mean_s2d, s2d_below) =
-        mean_below(&s2d, params.max_dist, "completeness (s2d, GT -> mesh)")?;
+    let (mean_d2s, d2s_below) = mean_below(&d2s, params.max_dist, "accuracy (d2s, mesh -> GT)")
+        .map_err(|e| with_smallest_distance(e, &gt.points, &data_in_obs))?;
+    let (mean_s2d, s2d_below) = mean_below(&s2d, params.max_dist, "completeness (s2d, GT -> mesh)")
+        .map_err(|e| with_smallest_distance(e, &data_in, &gt_above))?;
     sw.lap("means");
 
     let counts = DtuCounts {

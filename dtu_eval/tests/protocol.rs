@@ -116,6 +116,64 @@ fn mesh_points_as_ground_truth_give_zero_accuracy_and_completeness_below_the_rad
     assert!(e.mean_s2d > 0.0 && e.mean_s2d < 0.2);
 }
 
+/// The mean of the distances `< max` in order, as the protocol's step 6 sums them.
+fn mean_in_order(d: &[f64], max: f64) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0u64);
+    for &v in d {
+        if v < max {
+            sum += v;
+            n += 1;
+        }
+    }
+    sum / n as f64
+}
+
+#[test]
+fn distances_beyond_max_dist_are_not_searched_and_the_rest_equal_brute_force() {
+    // A sphere 4 mm off the ground truth with a 2.5 mm cut: many distances on either side of it.
+    let dir = tempfile::tempdir().unwrap();
+    write_gt(dir.path(), SCAN, 8000);
+    let gt = GroundTruth::load(dir.path(), SCAN).unwrap();
+    let c = [CENTRE[0] + 4.0, CENTRE[1], CENTRE[2]];
+    let mesh = uv_sphere(c, RADIUS, 30, 60);
+    let params = DtuParams {
+        max_dist: 2.5,
+        ..DtuParams::default()
+    };
+    let mut e = evaluate_mesh(&mesh, &gt, &params, 0).unwrap();
+    let data_in = dtu_eval::downsample::select(&e.data_down, &e.in_box);
+    let data_in_obs = dtu_eval::downsample::select(&e.data_down, &e.in_obs);
+    let gt_above = dtu_eval::downsample::select(&gt.points, &e.above);
+    let d2s = nearest_distances_brute(&gt.points, &data_in_obs);
+    let s2d = nearest_distances_brute(&data_in, &gt_above);
+    for (name, fast, brute) in [("d2s", &e.d2s, &d2s), ("s2d", &e.s2d, &s2d)] {
+        assert_eq!(fast.len(), brute.len(), "{name}");
+        let beyond = brute.iter().filter(|&&d| d >= params.max_dist).count();
+        assert!(
+            beyond > brute.len() / 10 && beyond < brute.len() * 9 / 10,
+            "{name}: {beyond} of {} beyond the cut",
+            brute.len()
+        );
+        for (i, (&f, &b)) in fast.iter().zip(brute).enumerate() {
+            if b < params.max_dist {
+                assert_eq!(f, b, "{name}[{i}]: below the cut, the exact distance");
+            } else {
+                assert_eq!(
+                    f,
+                    f64::INFINITY,
+                    "{name}[{i}] = {b}: beyond the cut, not searched"
+                );
+            }
+        }
+    }
+    assert_eq!(e.mean_d2s, mean_in_order(&d2s, params.max_dist));
+    assert_eq!(e.mean_s2d, mean_in_order(&s2d, params.max_dist));
+    // Filled in on request (what --dump-dir writes): every distance, exact.
+    e.exact_outliers(&gt).unwrap();
+    assert_eq!(e.d2s, d2s);
+    assert_eq!(e.s2d, s2d);
+}
+
 #[test]
 fn same_seed_same_figures_other_seed_close_figures() {
     let dir = tempfile::tempdir().unwrap();

@@ -30,8 +30,8 @@
 use super::colmap_binary;
 pub use super::colmap_binary::write_binary;
 use super::{
-    find_mask, io_err, roi_auto, roi_from_cameras, roi_from_points, Distortion, ImportError,
-    ImportedView, Roi, RoiChoice,
+    check_baseline, find_mask_or_err, io_err, roi_auto, roi_from_cameras, roi_from_points,
+    Distortion, ImportError, ImportedView, Roi, RoiChoice,
 };
 use crate::scene::Camera;
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
@@ -482,6 +482,30 @@ pub fn intrinsics(
             ),
         ));
     }
+    // The undistorted image keeps K and the size (module doc of `undistort`): its pixels reach
+    // the normalised radius of its farthest corner, and the model must not fold back before it.
+    let r_image = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+        .iter()
+        .map(|&(a, b)| {
+            let u = (a * cam.width as f64 - cx) / fx;
+            let v = (b * cam.height as f64 - cy) / fy;
+            (u * u + v * v).sqrt()
+        })
+        .fold(0.0, f64::max);
+    if let Some(r) = distortion.radial_fold(r_image) {
+        return Err(parse_err(
+            file,
+            format!(
+                "camera {} ({} {p:?}): the radial distortion r·(1 + k1·r² + k2·r⁴) folds back at \
+                 r = {r:.4} ({:.1} px from the principal point), inside the image, whose corners \
+                 reach r = {r_image:.4}: undistorting would repeat parts of the view in rings. \
+                 Check the calibration (a sign or a unit slipped?)",
+                cam.id,
+                cam.model,
+                r * fx
+            ),
+        ));
+    }
     Ok((
         Matrix3::new(fx, 0.0, cx, 0.0, fy, cy, 0.0, 0.0, 1.0),
         distortion,
@@ -532,7 +556,7 @@ pub struct ColmapImport {
     pub model_dir: PathBuf,
     /// The image folder the model's image names are relative to.
     pub images: PathBuf,
-    /// Optional mask folder (see [`find_mask`] for how masks are matched).
+    /// Optional mask folder (see [`super::find_mask`] for how masks are matched).
     pub masks: Option<PathBuf>,
     /// Region of interest override; `None` chooses it from [`Self::roi_from`].
     pub roi: Option<Roi>,
@@ -562,9 +586,17 @@ pub fn import(
             what: "the image folder given by --images".into(),
         });
     }
+    if let Some(dir) = opts.masks.as_ref().filter(|d| !d.is_dir()) {
+        return Err(ImportError::MissingFile {
+            path: dir.clone(),
+            what: "the --masks folder does not exist, or is not a folder".into(),
+        });
+    }
     let mut images: Vec<&ColmapImage> = model.images.iter().collect();
     images.sort_by(|a, b| a.name.cmp(&b.name));
     let mut views = Vec::with_capacity(images.len());
+    // Each photograph once: the file (links resolved) → the first image naming it.
+    let mut seen: BTreeMap<PathBuf, &ColmapImage> = BTreeMap::new();
     for im in images {
         let cam = model.cameras.get(&im.camera_id).ok_or_else(|| {
             parse_err(
@@ -614,20 +646,24 @@ pub fn import(
                 path: image,
             });
         }
+        let file = image.canonicalize().map_err(io_err(&image))?;
+        if let Some(first) = seen.get(&file) {
+            // The two entries in the order of their ids.
+            let (a, b) = if first.id <= im.id {
+                (*first, im)
+            } else {
+                (im, *first)
+            };
+            return Err(ImportError::DuplicateImage {
+                source_file: images_file.clone(),
+                first: format!("image {} ('{}')", a.id, a.name),
+                second: format!("image {} ('{}')", b.id, b.name),
+                path: image,
+            });
+        }
+        seen.insert(file, im);
         let mask = match &opts.masks {
-            Some(dir) => {
-                Some(
-                    find_mask(dir, &im.name).ok_or_else(|| ImportError::MissingFile {
-                        path: dir.join(format!("{}.png", im.name)),
-                        what: format!(
-                    "no mask for image '{}' in {} (tried <name>.png, <stem>.png and a PNG with \
-                     the same number)",
-                    im.name,
-                    dir.display()
-                ),
-                    })?,
-                )
-            }
+            Some(dir) => Some(find_mask_or_err(dir, &im.name)?),
             None => None,
         };
         views.push(ImportedView {
@@ -645,6 +681,23 @@ pub fn import(
             distortion,
         });
     }
+    // Before the region of interest: cameras with no baseline make every automatic choice fail
+    // in ways that do not say why.
+    let middle = |k: usize| {
+        let mut axis: Vec<f64> = model
+            .points
+            .iter()
+            .map(|p| p.xyz[k])
+            .filter(|v| v.is_finite())
+            .collect();
+        axis.sort_by(f64::total_cmp);
+        axis.get(axis.len() / 2).copied()
+    };
+    let points_middle = (0..3)
+        .map(middle)
+        .collect::<Option<Vec<f64>>>()
+        .map(|m| [m[0], m[1], m[2]]);
+    check_baseline(&views, opts.roi.map(|r| r.center).or(points_middle))?;
     let roi = match opts.roi {
         Some(roi) => RoiChoice {
             roi,

@@ -100,6 +100,31 @@ pub enum ImportError {
     /// The output folder exists and is not empty.
     #[error("output folder {0} exists and is not empty")]
     OutputExists(PathBuf),
+    /// The output path cannot be a folder (a dangling link, a file, ...).
+    #[error(transparent)]
+    OutputDir(#[from] crate::util::OutputDirError),
+    /// Two entries of the source name the same photograph.
+    #[error(
+        "{source_file}: {first} and {second} both name {path}; each view needs a photograph of \
+         its own (remove or rename one of the two entries)"
+    )]
+    DuplicateImage {
+        source_file: PathBuf,
+        first: String,
+        second: String,
+        path: PathBuf,
+    },
+    /// No mask file matches an image in the mask folder.
+    #[error("no mask for image '{name}' in {dir}: tried {tried}")]
+    MissingMask {
+        name: String,
+        dir: PathBuf,
+        tried: String,
+    },
+    /// The cameras cannot reconstruct anything: they share one centre, or too few see the
+    /// region of interest.
+    #[error("{0}")]
+    Cameras(String),
     /// An export was asked of a camera the format cannot express.
     #[error("cannot export: {0}")]
     Export(String),
@@ -465,23 +490,167 @@ pub fn check_cameras_outside(views: &[ImportedView], roi: &Roi) -> Result<(), Im
     Ok(())
 }
 
-/// Errors unless `out` is absent or an empty folder; then creates it.
-pub(crate) fn prepare_output(out: &Path) -> Result<(), ImportError> {
-    if out.exists() {
-        let mut entries = std::fs::read_dir(out).map_err(io_err(out))?;
-        if entries.next().is_some() {
-            return Err(ImportError::OutputExists(out.into()));
+/// The output folder of an import while it is written: on drop, unless [`Self::keep`] was
+/// called, removes what this import created and nothing else. When `out` did not exist, the
+/// highest folder the import created for it (`out` or an ancestor) goes, whole; when it existed
+/// (empty, as [`prepare_output`] requires), only the entries an import writes into it go
+/// (`image/`, `mask/`, the camera file and `import.json`), and the folder stays.
+pub(crate) struct OutputGuard {
+    out: PathBuf,
+    created: Option<PathBuf>,
+    kept: bool,
+}
+
+impl OutputGuard {
+    /// The import succeeded: leave everything in place.
+    pub(crate) fn keep(mut self) {
+        self.kept = true;
+    }
+}
+
+impl Drop for OutputGuard {
+    fn drop(&mut self) {
+        if self.kept {
+            return;
+        }
+        match &self.created {
+            Some(root) => {
+                let _ = std::fs::remove_dir_all(root);
+            }
+            None => {
+                for dir in ["image", "mask"] {
+                    let _ = std::fs::remove_dir_all(self.out.join(dir));
+                }
+                for file in [crate::scene::dtu::CAMERA_FILE, "import.json"] {
+                    let _ = std::fs::remove_file(self.out.join(file));
+                }
+            }
         }
     }
-    std::fs::create_dir_all(out).map_err(io_err(out))
+}
+
+/// Errors unless `out` is absent or an empty folder (a dangling symbolic link or a file is
+/// named as such, [`crate::util::inspect_output_dir`]); then creates it, and returns the guard
+/// that removes what was created if the import fails.
+pub(crate) fn prepare_output(out: &Path) -> Result<OutputGuard, ImportError> {
+    use crate::util::{inspect_output_dir, OutputDir};
+    let created = match inspect_output_dir(out)? {
+        OutputDir::NotEmpty => return Err(ImportError::OutputExists(out.into())),
+        OutputDir::Empty => None,
+        // The highest ancestor that does not exist yet: create_dir_all makes it and all below.
+        OutputDir::Absent => out
+            .ancestors()
+            .take_while(|a| !a.as_os_str().is_empty() && std::fs::symlink_metadata(a).is_err())
+            .last()
+            .map(Path::to_path_buf),
+    };
+    let guard = OutputGuard {
+        out: out.into(),
+        created,
+        kept: false,
+    };
+    std::fs::create_dir_all(out).map_err(io_err(out))?;
+    Ok(guard)
+}
+
+/// Errors unless the cameras have a baseline: at least two views, and centres that are not all
+/// one point, i.e. spread over more than a millionth of their distance to `reference` (a point
+/// of the scene: the region of interest's centre, or the middle of the sparse points; the
+/// source's origin when there is none). A panorama turned on a tripod sees the scene from one
+/// point, and nothing can be triangulated from it.
+pub fn check_baseline(
+    views: &[ImportedView],
+    reference: Option<[f64; 3]>,
+) -> Result<(), ImportError> {
+    if views.len() < 2 {
+        return Err(ImportError::Cameras(format!(
+            "only {} view: a reconstruction needs cameras at two places at least",
+            views.len()
+        )));
+    }
+    let centres: Vec<Vector3<f64>> = views.iter().map(|v| v.camera.center).collect();
+    let mean = centres.iter().sum::<Vector3<f64>>() / centres.len() as f64;
+    let spread = centres
+        .iter()
+        .map(|c| (c - mean).norm())
+        .fold(0.0, f64::max);
+    let reference = Vector3::from(reference.unwrap_or_default());
+    let scale = centres
+        .iter()
+        .map(|c| (c - reference).norm())
+        .fold(0.0, f64::max);
+    if spread <= 1e-6 * scale {
+        return Err(ImportError::Cameras(format!(
+            "all {} cameras share one centre ({:?}, within {spread:.3e} source units): no \
+             baseline, so nothing can be triangulated (a panorama turned about one point?); \
+             import photographs taken from different places",
+            views.len(),
+            mean.as_slice()
+        )));
+    }
+    Ok(())
+}
+
+/// Whether `cam` sees some of the sphere `roi`: the sphere lies in front of the camera and
+/// reaches into its view, i.e. is not wholly outside one of the four planes through the camera
+/// centre and the image's edges (the frustum test of real-time rendering, which may accept a
+/// sphere just off a corner of the view, never refuse one in it).
+fn sees(cam: &Camera, roi: &Roi) -> bool {
+    let c = cam.r * (Vector3::from(roi.center) - cam.center);
+    if c.z <= -roi.radius {
+        return false;
+    }
+    let Some(k_inv) = cam.k.try_inverse() else {
+        return false;
+    };
+    let (w, h) = (cam.width as f64, cam.height as f64);
+    let corners =
+        [(0.0, 0.0), (w, 0.0), (w, h), (0.0, h)].map(|(x, y)| k_inv * Vector3::new(x, y, 1.0));
+    let inside = k_inv * Vector3::new(0.5 * w, 0.5 * h, 1.0);
+    (0..4).all(|i| {
+        let mut n = corners[i].cross(&corners[(i + 1) % 4]).normalize();
+        if n.dot(&inside) < 0.0 {
+            n = -n;
+        }
+        n.dot(&c) > -roi.radius
+    })
+}
+
+/// Errors unless at least two cameras see some of the region of interest (a region no camera,
+/// or a single one, sees cannot be reconstructed: e.g. `--roi-center` in the wrong frame or unit).
+pub fn check_roi_seen(views: &[ImportedView], roi: &Roi) -> Result<(), ImportError> {
+    let seeing: Vec<&str> = views
+        .iter()
+        .filter(|v| sees(&v.camera, roi))
+        .map(|v| v.name.as_str())
+        .collect();
+    if seeing.len() >= 2 {
+        return Ok(());
+    }
+    let [x, y, z] = roi.center;
+    Err(ImportError::Roi(format!(
+        "the sphere of centre ({x}, {y}, {z}) and radius {} (source world units) is seen by {} of \
+         {} cameras{}; a reconstruction needs it in the view of two at least. Give a \
+         --roi-center and --roi-radius in the source's frame and unit (or leave them out to \
+         choose automatically)",
+        roi.radius,
+        seeing.len(),
+        views.len(),
+        match seeing.first() {
+            Some(name) => format!(" (only '{name}')"),
+            None => String::new(),
+        }
+    )))
 }
 
 /// Writes the NeuS scene folder `out` (absent or empty): images (and masks, when every view has
 /// one) converted to 8-bit PNG in the given order, `cameras_sphere.npz` with the ROI's
-/// `scale_mat`, and `import.json`. Checks every image's size against its camera and that every
-/// camera lies outside the ROI first, so a bad input leaves no half-written scene behind the
-/// first error it can detect from headers. Images are converted in parallel, one per thread
-/// at a time.
+/// `scale_mat`, and `import.json`. Checks first that the cameras have a baseline
+/// ([`check_baseline`]), lie outside the ROI and that two of them see it ([`check_roi_seen`]),
+/// and every image's size against its camera, so a bad input leaves no half-written scene behind the
+/// first error it can detect from headers; a later failure (an image that does not decode)
+/// removes what this call created ([`OutputGuard`]). Images are converted in parallel, one per
+/// thread at a time.
 pub fn write_imported_scene(
     out: &Path,
     views: &[ImportedView],
@@ -493,7 +662,9 @@ pub fn write_imported_scene(
         return Err(ImportError::NoViews(source.into()));
     }
     roi.roi.validate()?;
+    check_baseline(views, Some(roi.roi.center))?;
     check_cameras_outside(views, &roi.roi)?;
+    check_roi_seen(views, &roi.roi)?;
     for v in views {
         for path in std::iter::once(&v.image).chain(&v.mask) {
             if !path.is_file() {
@@ -521,7 +692,7 @@ pub fn write_imported_scene(
         }
     }
     let masks = views.iter().all(|v| v.mask.is_some());
-    prepare_output(out)?;
+    let guard = prepare_output(out)?;
     let image_dir = out.join("image");
     std::fs::create_dir_all(&image_dir).map_err(io_err(&image_dir))?;
     let mask_dir = out.join("mask");
@@ -566,6 +737,7 @@ pub fn write_imported_scene(
         serde_json::to_string_pretty(&report).expect("report serialises"),
     )
     .map_err(io_err(&path))?;
+    guard.keep();
     Ok(report)
 }
 
@@ -575,14 +747,28 @@ pub fn write_imported_scene(
 /// folder whose stem holds the same number (so `mask/000.png` matches `image/000000.png`, the
 /// DTU layout's paddings).
 pub fn find_mask(mask_dir: &Path, name: &str) -> Option<PathBuf> {
+    find_mask_or_tried(mask_dir, name).ok()
+}
+
+/// [`find_mask`], or the error naming the image, the folder and the names tried.
+pub fn find_mask_or_err(mask_dir: &Path, name: &str) -> Result<PathBuf, ImportError> {
+    find_mask_or_tried(mask_dir, name).map_err(|tried| ImportError::MissingMask {
+        name: name.into(),
+        dir: mask_dir.into(),
+        tried,
+    })
+}
+
+/// [`find_mask`]'s search; `Err` lists what was tried, in words.
+fn find_mask_or_tried(mask_dir: &Path, name: &str) -> Result<PathBuf, String> {
     let rel = Path::new(name);
     let colmap_style = mask_dir.join(format!("{name}.png"));
     if colmap_style.is_file() {
-        return Some(colmap_style);
+        return Ok(colmap_style);
     }
     let same = mask_dir.join(rel).with_extension("png");
     if same.is_file() {
-        return Some(same);
+        return Ok(same);
     }
     let number = |p: &Path| -> Option<u64> {
         let digits: String = p
@@ -593,20 +779,36 @@ pub fn find_mask(mask_dir: &Path, name: &str) -> Option<PathBuf> {
             .collect();
         digits.parse().ok()
     };
-    let want = number(rel)?;
     let dir = match rel.parent() {
         Some(p) if !p.as_os_str().is_empty() => mask_dir.join(p),
         _ => mask_dir.to_path_buf(),
     };
+    let file = |p: &Path| p.strip_prefix(mask_dir).unwrap_or(p).display().to_string();
+    let mut tried = format!(
+        "{} (COLMAP's <image name>.png) and {}",
+        file(&colmap_style),
+        file(&same)
+    );
+    let Some(want) = number(rel) else {
+        tried.push_str("; the image name holds no number to match a mask by");
+        return Err(tried);
+    };
     let mut found: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .ok()?
+        .map_err(|e| format!("{tried}; cannot list {}: {e}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")) && number(p) == Some(want)
         })
         .collect();
     found.sort();
-    (found.len() == 1).then(|| found.remove(0))
+    match found.len() {
+        1 => Ok(found.remove(0)),
+        0 => Err(format!("{tried}, and found no PNG numbered {want}")),
+        n => Err(format!(
+            "{tried}, and found {n} PNGs numbered {want} ({}), which is ambiguous",
+            found.iter().map(|p| file(p)).collect::<Vec<_>>().join(", ")
+        )),
+    }
 }
 
 #[cfg(test)]

@@ -25,10 +25,11 @@
 //! Frames keep the file's order. The region of interest comes from the camera layout
 //! ([`roi_from_cameras`]) unless overridden.
 
-use super::{io_err, roi_from_cameras, ImportError, ImportedView, Roi, RoiChoice};
+use super::{check_baseline, io_err, roi_from_cameras, ImportError, ImportedView, Roi, RoiChoice};
 use crate::scene::Camera;
 use nalgebra::{Matrix3, Vector3};
 use serde_json::{json, Map, Value};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// `diag(1, −1, −1)`: flips the camera y and z axes between OpenGL and OpenCV.
@@ -139,6 +140,8 @@ pub fn import(
     }
     let dir = json_path.parent().unwrap_or(Path::new("."));
     let mut views = Vec::with_capacity(frames.len());
+    // Each photograph once: the file (links resolved) → the frame that named it first.
+    let mut seen: BTreeMap<PathBuf, (usize, String)> = BTreeMap::new();
     for (i, frame) in frames.iter().enumerate() {
         let frame = frame
             .as_object()
@@ -255,6 +258,16 @@ pub fn import(
             )));
         }
         let r = (r_gl * flip_yz()).transpose();
+        let file = image.canonicalize().map_err(io_err(&image))?;
+        if let Some((j, first)) = seen.get(&file) {
+            return Err(ImportError::DuplicateImage {
+                source_file: json_path.into(),
+                first: format!("frame {j} ('{first}')"),
+                second: format!("frame {i} ('{rel}')"),
+                path: image,
+            });
+        }
+        seen.insert(file, (i, rel.to_string()));
         views.push(ImportedView {
             name: rel.into(),
             image,
@@ -269,6 +282,7 @@ pub fn import(
             distortion: Default::default(),
         });
     }
+    check_baseline(&views, roi.map(|r| r.center))?;
     let choice = match roi {
         Some(roi) => RoiChoice {
             roi,

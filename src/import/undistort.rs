@@ -41,6 +41,39 @@ impl Distortion {
             .all(|&c| c == 0.0)
     }
 
+    /// The smallest normalised radius `r ∈ (0, r_max]` at which the radial part of the model,
+    /// `r·(1 + k1·r² + k2·r⁴)`, stops growing, if there is one: where its derivative
+    /// `1 + 3·k1·r² + 5·k2·r⁴` (a quadratic in `r²`, 1 at the centre) first reaches 0. Past that
+    /// radius the lens model folds back: two undistorted radii map to one distorted one, so an
+    /// image undistorted with it repeats parts of the view in rings. (Tangential terms are left
+    /// out: they are small in any usable calibration.)
+    pub fn radial_fold(&self, r_max: f64) -> Option<f64> {
+        let (a, b) = (5.0 * self.k2, 3.0 * self.k1);
+        // Roots of a·s² + b·s + 1 = 0, s = r²; the stable pair q/a and 1/q.
+        let roots: Vec<f64> = if a == 0.0 {
+            if b < 0.0 {
+                vec![-1.0 / b]
+            } else {
+                vec![]
+            }
+        } else {
+            let disc = b * b - 4.0 * a;
+            if disc < 0.0 {
+                vec![]
+            } else {
+                let q = -0.5 * (b + b.signum() * disc.sqrt());
+                let q = if q == 0.0 { -0.5 * disc.sqrt() } else { q };
+                vec![q / a, 1.0 / q]
+            }
+        };
+        roots
+            .into_iter()
+            .filter(|s| s.is_finite() && *s > 0.0)
+            .map(f64::sqrt)
+            .filter(|&r| r <= r_max)
+            .reduce(f64::min)
+    }
+
     /// Where a point at normalised undistorted coordinates `(u, v)` appears in the distorted
     /// image, in normalised coordinates (module doc).
     pub fn apply(&self, u: f64, v: f64) -> (f64, f64) {
@@ -163,6 +196,37 @@ mod tests {
             .fold(0.0f32, f32::max);
         assert!(worst < 1e-5, "largest change {worst}");
         assert!(Distortion::default().is_zero());
+    }
+
+    #[test]
+    fn the_radial_fold_is_where_the_radius_stops_growing() {
+        let d = |k1: f64, k2: f64| Distortion {
+            k1,
+            k2,
+            ..Default::default()
+        };
+        // k1 < 0 alone: 1 + 3·k1·r² = 0 at r = 1/sqrt(-3·k1).
+        let r = d(-50.0, 0.0).radial_fold(1.0).unwrap();
+        assert!((r - 1.0 / 150f64.sqrt()).abs() < 1e-15, "{r}");
+        assert_eq!(d(-50.0, 0.0).radial_fold(0.5 * r), None, "beyond the image");
+        assert_eq!(d(0.1, 0.0).radial_fold(10.0), None);
+        assert_eq!(d(0.0, 0.0).radial_fold(10.0), None);
+        // k2 > 0 with a small negative k1 never folds (discriminant < 0); k2 < 0 always does.
+        assert_eq!(d(-0.1, 0.05).radial_fold(100.0), None);
+        let r = d(0.0, -0.2).radial_fold(10.0).unwrap();
+        assert!((1.0 + 5.0 * -0.2 * r.powi(4)).abs() < 1e-12, "{r}");
+        // The root found is the first: the model's radius grows up to it and shrinks just after.
+        let m = d(-0.6, 0.1);
+        let r = m.radial_fold(10.0).unwrap();
+        let radial = |r: f64| m.apply(r, 0.0).0;
+        assert!(
+            radial(r - 1e-4) < radial(r) && radial(r + 1e-4) < radial(r),
+            "{r}"
+        );
+        for i in 1..100 {
+            let s = r * i as f64 / 100.0;
+            assert!(radial(s - 1e-6) < radial(s), "not increasing at {s}");
+        }
     }
 
     #[test]

@@ -51,6 +51,7 @@ pub use setup::SimScene;
 
 use crate::mesh::TopologyReport;
 use crate::scene::{write_scene, ImageError, SceneError, ViewOut};
+use crate::util::{inspect_output_dir, OutputDir};
 use dtu_eval::gt::{GtError, GtPaths};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -88,6 +89,9 @@ pub enum SimError {
     /// The output folder is not empty.
     #[error("output folder {0} exists and is not empty; choose another --out or remove it")]
     OutputExists(PathBuf),
+    /// The output path cannot be a folder (a dangling link, a file, ...).
+    #[error(transparent)]
+    OutputDir(#[from] crate::util::OutputDirError),
     /// No cache directory can be found.
     #[error("no cache directory: set NEUS_AUG_CACHE (or HOME)")]
     NoCacheDir,
@@ -286,11 +290,8 @@ pub fn generate(
             p(msg)
         }
     };
-    if out.exists() {
-        let mut entries = std::fs::read_dir(out).map_err(io_err(out))?;
-        if entries.next().is_some() {
-            return Err(SimError::OutputExists(out.into()));
-        }
+    if inspect_output_dir(out)? == OutputDir::NotEmpty {
+        return Err(SimError::OutputExists(out.into()));
     }
     let t0 = Instant::now();
     let scene = SimScene::prepare(desc)?;
@@ -304,6 +305,17 @@ pub fn generate(
         say(&format!("rendered view {}/{n}", i + 1));
     }
     let render_s = t1.elapsed().as_secs_f64();
+    if views.iter().all(|v| v.mask.data.iter().all(|&m| m == 0.0)) {
+        // A scene without its object has no ground truth worth scoring (its floor would read
+        // 0.000 mm): refuse it rather than write it.
+        return Err(SimError::Invalid {
+            key: "object".into(),
+            problem: format!(
+                "covers no pixel in any of the {n} views: check the object's size and the rig \
+                 (distance_mm, elevation_deg, resolution)"
+            ),
+        });
+    }
     let counters: Counters = views.iter().map(|v| v.counters).sum();
 
     say(&format!(
@@ -443,14 +455,17 @@ pub fn generate_atomic(
     out: &Path,
     opts: &GenerateOptions,
 ) -> Result<SynthReport, SimError> {
-    if out.exists()
-        && std::fs::read_dir(out)
-            .map_err(io_err(out))?
-            .next()
-            .is_some()
-    {
-        return Err(SimError::OutputExists(out.into()));
-    }
+    let out_link = out;
+    let resolved;
+    let out = match inspect_output_dir(out)? {
+        OutputDir::NotEmpty => return Err(SimError::OutputExists(out.into())),
+        // A link to an empty folder: the scene replaces that folder, and the link stays.
+        OutputDir::Empty if out.is_symlink() => {
+            resolved = out.canonicalize().map_err(io_err(out))?;
+            resolved.as_path()
+        }
+        _ => out,
+    };
     let parent = match out.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -468,7 +483,7 @@ pub fn generate_atomic(
     let result = generate(desc, &tmp, opts).and_then(|mut report| {
         // rename(2) replaces an empty directory, so an existing empty `out` is fine.
         std::fs::rename(&tmp, out).map_err(io_err(out))?;
-        report.root = out.into();
+        report.root = out_link.into();
         Ok(report)
     });
     if result.is_err() {

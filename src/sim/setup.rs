@@ -116,12 +116,22 @@ impl SimScene {
             (None, None) => unreachable!("validate() requires a shape or a mesh"),
         };
         let closed_oriented = raw.is_closed_oriented() && raw.signed_volume6() > 0.0;
-        let local = raw
-            .centre_and_scale(o.radius_mm)
-            .map_err(|problem| SimError::BadMesh {
-                path: source.clone().into(),
-                problem,
-            })?;
+        let bad_mesh = |problem: String| SimError::BadMesh {
+            path: source.clone().into(),
+            problem,
+        };
+        let (raw_area, n_faces) = (raw.area(), raw.faces.len());
+        let stray = raw
+            .farthest_from_median()
+            .map(|(i, d)| (i, raw.vertices[i].map(|c| c as f32), d));
+        // A mesh with no extent (every vertex one point) is named as such first.
+        let local = raw.centre_and_scale(o.radius_mm).map_err(bad_mesh)?;
+        if raw_area.is_nan() || raw_area <= 0.0 {
+            return Err(bad_mesh(format!(
+                "has zero surface area: all {n_faces} faces are degenerate (repeated or \
+                 collinear corners), so there is nothing to render"
+            )));
+        }
         let frame = Frame::new(o.center_mm);
         // The world mesh (f32) is the ground truth; the rig-frame triangles are derived from it
         // so the renderer traces exactly that surface (up to f32 rounding, < 2e-5 mm).
@@ -160,6 +170,22 @@ impl SimScene {
             .rig
             .distance_mm
             .unwrap_or_else(|| rig::fit_distance(o.radius_mm, &k, w, h));
+        // Scaled into the rig, the surface must cover a pixel at least: one vertex far from the
+        // rest (a stray point, a unit slip) shrinks everything else to nothing.
+        let pixel_mm = distance_mm / k[(0, 0)].max(k[(1, 1)]);
+        let area_mm2 = local.area();
+        if area_mm2.is_nan() || area_mm2 < pixel_mm * pixel_mm {
+            let (i, at, d) = stray.unwrap_or_default();
+            return Err(bad_mesh(format!(
+                "scaled into the rig (its bounding radius set to {} mm), the surface totals \
+                 {area_mm2:.3e} mm², less than one pixel ({:.3} mm² at the cameras' \
+                 {distance_mm:.0} mm): nothing would be rendered. The vertex farthest from the \
+                 others' median is vertex {i} at {at:?}, {d:.3e} file units from it: a stray \
+                 vertex, or one in another unit?",
+                o.radius_mm,
+                pixel_mm * pixel_mm
+            )));
+        }
         let cameras = rig::cameras(&desc.rig, &frame, distance_mm);
         let normalization = rig::normalization(&mesh_world.vertices, desc.rig.scale_margin);
 

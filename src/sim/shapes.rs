@@ -73,6 +73,35 @@ impl Mesh {
             .sum()
     }
 
+    /// The total area of the faces (the mesh's unit squared).
+    pub fn area(&self) -> f64 {
+        self.faces
+            .iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|i| self.vertices[i as usize]);
+                0.5 * norm(cross(sub(b, a), sub(c, a)))
+            })
+            .sum()
+    }
+
+    /// The vertex farthest from the per-axis median of the vertices, with its distance to it:
+    /// the likeliest stray vertex when one stretches the bounding box (a median ignores it, the
+    /// box's centre does not). `None` without vertices.
+    pub fn farthest_from_median(&self) -> Option<(usize, f64)> {
+        let n = self.vertices.len();
+        if n == 0 {
+            return None;
+        }
+        let median: V3 = std::array::from_fn(|k| {
+            let mut axis: Vec<f64> = self.vertices.iter().map(|v| v[k]).collect();
+            axis.sort_by(f64::total_cmp);
+            axis[n / 2]
+        });
+        (0..n)
+            .map(|i| (i, norm(sub(self.vertices[i], median))))
+            .reduce(|best, x| if x.1 > best.1 { x } else { best })
+    }
+
     /// Appends `other`, first flipping it if it is oriented inwards (each component is closed).
     fn append_component(&mut self, other: Mesh) {
         let other = other.outward();
@@ -704,9 +733,16 @@ pub fn load_mesh(path: &Path, up: UpAxis) -> Result<Mesh, SimError> {
             dtu_eval::ply::read_mesh(path).map_err(|e| bad(dtu_eval::error::error_chain(&e)))?
         }
         "obj" => {
-            let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
+            let bytes = std::fs::read(path).map_err(|source| SimError::Io {
                 path: path.into(),
                 source,
+            })?;
+            let text = String::from_utf8(bytes).map_err(|e| {
+                bad(format!(
+                    "is not a text OBJ file: byte {} is not UTF-8 text (a binary file, or another \
+                     format named .obj?)",
+                    e.utf8_error().valid_up_to()
+                ))
             })?;
             parse_obj(&text).map_err(bad)?
         }
