@@ -263,3 +263,14 @@ fn quiet_skips_are_said_and_recorded() {
     let err = ok(&o);
     assert_eq!(err.matches("model.background.kind").count(), 1, "{err}");
 }
+
+#[test]
+fn an_output_folder_that_is_a_dangling_link_is_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path());
+    let out = tmp.path().join("dl");
+    std::os::unix::fs::symlink(tmp.path().join("gone"), &out).unwrap();
+    let o = reconstruct(&cfg, &out, &[]);
+    refused(&o, &["symbolic link", "gone", "does not exist"]);
+    assert!(!tmp.path().join("gone").exists());
+}

@@ -46,11 +46,11 @@ pub(super) fn check_output(
         path: out.into(),
         problem,
     };
-    if !out.exists() {
-        return Ok(());
-    }
-    if !out.is_dir() {
-        return Err(err("is a file, not a folder; choose another --out".into()));
+    match crate::util::inspect_output_dir(out) {
+        Ok(crate::util::OutputDir::Absent) => return Ok(()),
+        Ok(_) => {}
+        // A dangling link, a file: named, with what to do.
+        Err(e) => return Err(err(format!("{e}; choose another --out"))),
     }
     if !locked {
         RunLock::check_free(out)?;
