@@ -4,12 +4,14 @@
 //! the `dtu_eval` crate (the DTU Chamfer protocol; the ground floor) and [`util`] (shared helpers
 //! that import nothing) → [`scene`] (DTU-layout I/O, cameras, rays) → [`augment`] (colour
 //! manipulations, degradations, SIA/DIA) → [`field`] → [`render`] → [`train`] → [`mesh`] →
-//! [`sim`] (the simulator: uses `scene`, `augment`, `mesh` and `dtu_eval`) → [`import`] (COLMAP
+//! [`export`] (coloured and textured meshes, turntables: uses `scene`, `field`, `render`,
+//! `train` and `mesh`'s `dtu_eval` types) → [`sim`] (the simulator: uses `scene`, `augment`, `mesh` and `dtu_eval`) → [`import`] (COLMAP
 //! and transforms.json data into the DTU layout: uses `scene`) → [`reconstruct`] →
 //! [`study`] → the `neus-aug` binary's `cli`. Nothing low in the stack knows about what sits
 //! above it.
 
 pub mod augment;
+pub mod export;
 pub mod field;
 pub mod import;
 pub mod mesh;

@@ -250,6 +250,9 @@ pub struct RunConfig {
     pub mesh: MeshConfig,
     /// Evaluation.
     pub eval: EvalConfig,
+    /// Exported files besides the scored mesh (`crate::export`).
+    #[serde(skip_serializing_if = "crate::export::ExportConfig::is_default")]
+    pub export: crate::export::ExportConfig,
 }
 
 impl Default for RunConfig {
@@ -519,6 +522,9 @@ impl RunConfig {
             if let Err(why) = w.check() {
                 return Err(invalid(&format!("model.loss.{k}"), w, why));
             }
+        }
+        if let Some((key, value, why)) = self.export.invalid() {
+            return Err(invalid(key, value, &why));
         }
         self.model.field.validate().map_err(|e| match e {
             crate::field::config::ConfigError::Invalid { key, value, why } => {

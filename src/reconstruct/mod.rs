@@ -110,6 +110,8 @@ pub enum ReconstructError {
     Ply(#[from] dtu_eval::ply::PlyError),
     #[error(transparent)]
     Image(#[from] crate::scene::ImageError),
+    #[error(transparent)]
+    Export(#[from] crate::export::ExportError),
     #[error("cannot write {path}: {source}")]
     Io {
         path: PathBuf,
@@ -1243,6 +1245,14 @@ pub fn run(cfg: &RunConfig, opts: &RunOptions) -> Result<Metrics, ReconstructErr
         });
     }
     timings.render = t.elapsed().as_secs_f64();
+    // Normals and colours into mesh.ply, the turntable, the held-out sheet (`crate::export`).
+    let t = Instant::now();
+    let e = &cfg.export;
+    let (p, ti) = (&state.params, &train_idx);
+    crate::export::after_reconstruct(
+        e, &model, p, sched, &scene, ti, &mesh, &heldout, &out, quiet,
+    )?;
+    timings.export = t.elapsed().as_secs_f64();
     let mean = |f: &dyn Fn(&ViewMetrics) -> Option<f64>| -> Option<f64> {
         let v: Vec<f64> = heldout_metrics.iter().filter_map(f).collect();
         (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)

@@ -211,6 +211,7 @@ impl Preset {
             train,
             mesh,
             eval: EvalConfig::default(),
+            export: Default::default(),
         }
     }
 }
