@@ -13,6 +13,9 @@
 //! mipmaps at a chart's border then read the chart's colours, not the empty atlas (the seams
 //! nerfstudio avoids with the same dilation). Texels no chart reaches take the mean colour.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::colors::SurfaceField;
 use super::unwrap::{padding_for, UvMesh};
 use super::{to_normalized, to_u8, ExportError};
@@ -88,7 +91,7 @@ pub fn raster_triangle(
         order.swap(1, 2);
         a = -a;
     }
-    if !(a > 0.0 && a.is_finite()) {
+    if a.is_nan() || a <= 0.0 || a.is_infinite() {
         return;
     }
     let lo = |k: usize| q.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);

@@ -7,6 +7,9 @@
 //! mesh's PSNR is close to the network's (the issue asks within 2 dB for the texture, 4 dB for
 //! vertex colours, whose resolution is the mesh's).
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::raycast::MeshScene;
 use super::{to_normalized, ColoredMesh, ExportError, SurfaceField, TexturedMesh};
 use crate::render::model::{NeusModel, RayBatch};

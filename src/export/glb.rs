@@ -15,6 +15,9 @@
 //! centre at the origin. Texture coordinates have `v` down (§3.7.2.1: origin at the image's
 //! top-left), as [`UvMesh`] stores them.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::unwrap::UvMesh;
 use gltf_json as json;
 use json::validation::Checked::Valid;

@@ -4,6 +4,9 @@
 //! the held-out normal renders show it). One ray per pixel centre ([`camera_rays`]); a ray that
 //! hits nothing shows the background.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::bake::BakedTexture;
 use super::unwrap::UvMesh;
 use super::{ColoredMesh, TexturedMesh};
@@ -132,7 +135,7 @@ impl<'a> MeshScene<'a> {
         let (d11, d12, d22) = (dot(e1, e1), dot(e1, e2), dot(e2, e2));
         let (q1, q2) = (dot(q, e1), dot(q, e2));
         let den = d11 * d22 - d12 * d12;
-        if !(den > 0.0) {
+        if den.is_nan() || den <= 0.0 {
             return [1.0, 0.0, 0.0];
         }
         let b1 = ((d22 * q1 - d12 * q2) / den).clamp(0.0, 1.0);

@@ -11,6 +11,9 @@
 //! of a second where volume rendering the same frames would cost about a tenth of a `quick` run,
 //! and it shows what the user's viewer will show.
 
+// Numeric kernels index several parallel arrays with one loop variable.
+#![allow(clippy::needless_range_loop)]
+
 use super::raycast::MeshScene;
 use super::{io_err, to_u8, ExportError};
 use crate::scene::{Camera, RgbImage};
