@@ -19,7 +19,7 @@ use std::path::Path;
 fn header(n_vertices: usize, n_faces: usize) -> String {
     let mut h = String::from("ply\nformat binary_little_endian 1.0\n");
     h += "comment neus-aug: world mm; normals from the SDF gradient; colours from the colour \
-          network seen head-on\n";
+          network at the surface\n";
     h += &format!("element vertex {n_vertices}\n");
     for p in ["x", "y", "z", "nx", "ny", "nz"] {
         h += &format!("property float {p}\n");
