@@ -30,6 +30,11 @@ import open3d as o3d  # noqa: E402
 import trimesh  # noqa: E402
 
 
+def one_mesh(scene):
+    """A scene's geometry as one mesh, transforms applied (trimesh ≥ 4.5: `to_geometry`)."""
+    return scene.to_geometry() if hasattr(scene, "to_geometry") else scene.dump(concatenate=True)
+
+
 def fail(msg: str) -> None:
     sys.exit(f"FAIL: {msg}")
 
@@ -65,7 +70,7 @@ def main() -> None:
     # OBJ + MTL + PNG.
     obj = trimesh.load(d / "mesh_textured.obj", process=False, maintain_order=True)
     if isinstance(obj, trimesh.Scene):
-        obj = obj.dump(concatenate=True)
+        obj = one_mesh(obj)
     if len(obj.faces) != nf:
         fail(f"trimesh OBJ: {len(obj.faces)} faces, expected {nf}")
     uv = np.asarray(obj.visual.uv)
@@ -97,7 +102,7 @@ def main() -> None:
         v = np.asarray(v, dtype=float)
         return np.linalg.norm(v - v.mean(axis=0), axis=1).max()
 
-    r_m, r_mm = radius(scene.dump(concatenate=True).vertices), radius(ply.vertices)
+    r_m, r_mm = radius(one_mesh(scene).vertices), radius(ply.vertices)
     if abs(r_m * 1000 - r_mm) > 1e-3 * r_mm:
         fail(f"trimesh GLB: radius {r_m} m, the PLY's {r_mm} mm")
     og = o3d.io.read_triangle_mesh(str(d / "mesh_textured.glb"))
