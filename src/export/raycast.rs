@@ -316,8 +316,9 @@ mod tests {
         let r = s.render(&cam, [0.0, 1.0, 0.0]);
         assert_eq!(r.rgb.get(0, 0), [0.0, 1.0, 0.0], "background");
         assert!(!r.hit[0] && r.hit[16 * 32 + 16]);
-        // Left is red, right is blue, the middle a mix.
-        let (l, c, rr) = (r.rgb.get(9, 16), r.rgb.get(16, 16), r.rgb.get(22, 16));
+        // The quad covers pixels 11..=20 (focal 20, half-width 1 at distance 4): left red, right
+        // blue, the middle a mix.
+        let (l, c, rr) = (r.rgb.get(12, 16), r.rgb.get(16, 16), r.rgb.get(20, 16));
         assert!(l[0] > 0.8 && l[2] < 0.2, "{l:?}");
         assert!(rr[2] > 0.8 && rr[0] < 0.2, "{rr:?}");
         assert!(

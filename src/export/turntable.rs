@@ -227,10 +227,11 @@ mod tests {
             faces: vec![[0, 1, 2]],
         };
         let c = [0.0, 0.0, 600.0];
-        // Cameras 30° above the xy plane (up = +z in their images), at distance 100.
+        // Four cameras around the object, 30° above the xy plane (up = +z in their images), at
+        // distance 100: their image-up axes' tilts cancel.
         let cams: Vec<Camera> = (0..4)
             .map(|i| {
-                let t = i as f64 * 0.7;
+                let t = i as f64 * std::f64::consts::FRAC_PI_2 + 0.3;
                 let e = 30f64.to_radians();
                 let dir = Vector3::new(t.cos() * e.cos(), t.sin() * e.cos(), e.sin());
                 let o = Orbit {
