@@ -4,6 +4,7 @@ use clap::{Parser, Subcommand};
 
 mod augment;
 mod eval;
+mod export;
 mod import;
 mod inspect;
 mod mcubes;
@@ -25,6 +26,9 @@ pub enum Command {
     Reconstruct(Box<reconstruct::ReconstructArgs>),
     /// Chamfer evaluation: DTU protocol (--scan N --gt-root DIR) or two sets (--ref PLY).
     Eval(dtu_eval::cli::EvalArgs),
+    /// Export a finished run's mesh with its trained colours: PLY with normals and colours,
+    /// textured OBJ and GLB, a turntable; `--check` measures them against the network.
+    Export(export::ExportArgs),
     /// Summarise a scene folder (views, intrinsics, masks, normalisation).
     Inspect(inspect::InspectArgs),
     /// Import a COLMAP model or a transforms.json into a NeuS scene folder.
@@ -46,6 +50,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Reconstruct(args) => reconstruct::run(*args),
         Command::Eval(args) => eval::run(&args),
+        Command::Export(args) => export::run(args),
         Command::Inspect(args) => inspect::run(args),
         Command::Import(args) => import::run(args),
         Command::Synth(args) => synth::run(args),

@@ -2,7 +2,7 @@
 //! writing. Layout (little endian; COLMAP `scripts/python/read_write_model.py`): see the
 //! [`colmap`](super::colmap) module doc.
 
-use super::colmap::{
+use super::colmap_model::{
     parse_err, supported_hint, ColmapCamera, ColmapImage, ColmapModel, ColmapPoint, MODELS,
 };
 use super::{io_err, ImportError};

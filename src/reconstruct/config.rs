@@ -276,6 +276,8 @@ pub struct RunConfig {
     pub mesh: MeshConfig,
     /// Evaluation.
     pub eval: EvalConfig,
+    /// Exported files besides the scored mesh (`crate::export`).
+    pub export: crate::export::ExportConfig,
 }
 
 /// Reports the first non-finite float anywhere in a configuration tree, naming its dotted key
@@ -621,6 +623,9 @@ impl RunConfig {
             if let Err(why) = w.check() {
                 return Err(invalid(&format!("model.loss.{k}"), w, why));
             }
+        }
+        if let Some((key, value, why)) = self.export.invalid() {
+            return Err(invalid(key, value, &why));
         }
         self.model.field.validate().map_err(|e| match e {
             crate::field::config::ConfigError::Invalid { key, value, why } => {

@@ -56,6 +56,9 @@ pub struct Timings {
     pub mesh: f64,
     pub eval: f64,
     pub render: f64,
+    /// The export step (`crate::export`: coloured `mesh.ply`, turntable, sheet, textured mesh).
+    #[serde(default)]
+    pub export: f64,
     pub total: f64,
 }
 

@@ -124,6 +124,8 @@ pub enum ReconstructError {
     /// The run trained, but no surface is left to score.
     #[error("the mesh is empty: {0}")]
     EmptyMesh(String),
+    #[error(transparent)]
+    Export(#[from] crate::export::ExportError),
     #[error("cannot write {path}: {source}")]
     Io {
         path: PathBuf,
@@ -196,6 +198,26 @@ fn finish(
     let mut ev = evaluate::evaluate(cfg, p, &meshes, &folder.out, quiet)?;
     let truth_mesh = ev.truth_mesh.take();
     let views = heldout::render_heldout(cfg, p, &trained.state, truth_mesh, &folder.out, quiet)?;
+    // Stage 7b: normals and colours into mesh.ply, the turntable, the held-out sheet
+    // (`crate::export`).
+    let t = Instant::now();
+    let sched = p.model.config.inference_schedule(cfg.train.iterations);
+    let params = &trained.state.params;
+    let (scene, ti, hv) = (&p.scene, &p.train_idx, &p.heldout);
+    let out = &folder.out;
+    crate::export::after_reconstruct(
+        &cfg.export,
+        &p.model,
+        params,
+        sched,
+        scene,
+        ti,
+        &meshes.mesh,
+        hv,
+        out,
+        quiet,
+    )?;
+    let export_secs = t.elapsed().as_secs_f64();
     report::write_metrics(
         cfg,
         p,
@@ -205,6 +227,7 @@ fn finish(
             meshes,
             ev,
             views,
+            export_secs,
         },
         t_total,
         quiet,

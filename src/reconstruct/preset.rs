@@ -165,6 +165,7 @@ impl Preset {
             train,
             mesh,
             eval: EvalConfig::default(),
+            export: Default::default(),
         }
     }
 }

@@ -16,6 +16,8 @@ pub(super) struct Stages {
     pub meshes: Meshes,
     pub ev: Evaluation,
     pub views: Heldout,
+    /// Stage 7b, the exported files (`crate::export`), seconds.
+    pub export_secs: f64,
 }
 
 /// Stage 8 (see the module doc).
@@ -32,6 +34,7 @@ pub(super) fn write_metrics(
         meshes: m,
         ev,
         views,
+        export_secs,
     } = s;
     let timings = Timings {
         load: p.load_secs,
@@ -40,6 +43,7 @@ pub(super) fn write_metrics(
         mesh: m.secs,
         eval: ev.secs,
         render: views.secs,
+        export: export_secs,
         total: t_total.elapsed().as_secs_f64(),
     };
     let g = ev.geometry;
