@@ -2,11 +2,11 @@
 //! checkpoint and `config.toml`, without training again (`neus_aug::export`).
 
 use anyhow::{bail, Context};
-use neus_aug::augment::views_fraction;
 use neus_aug::export::{self, check, ExportError, Formats, SurfaceField, ViewDirection};
-use neus_aug::mesh::clean::{clean_mesh, cull_unseen_parts, CleanOptions};
-use neus_aug::mesh::{extract_two_pass, to_world, McOptions, TwoPassOptions};
-use neus_aug::reconstruct::{config::MAX_MESH_RES, resolve_scene, RunConfig};
+use neus_aug::mesh::to_world;
+use neus_aug::reconstruct::{
+    clean_cut, config::MAX_MESH_RES, marching_cubes_of, resolve_scene, training_views, RunConfig,
+};
 use neus_aug::render::model::NeusModel;
 use neus_aug::scene::{Camera, GrayImage, LoadOptions, Scene};
 use neus_aug::train::checkpoint;
@@ -92,19 +92,10 @@ fn run_config(run: &Path) -> anyhow::Result<RunConfig> {
             run.display()
         )
     })?;
-    let cfg: RunConfig =
-        toml::from_str(&text).with_context(|| format!("{} does not parse", path.display()))?;
+    let cfg = RunConfig::from_saved_toml(&text, &path.display().to_string())?;
     cfg.validate()
         .with_context(|| format!("{} is not a valid configuration", path.display()))?;
     Ok(cfg)
-}
-
-/// The training views (indices), as `reconstruct` chose them.
-fn training_views(cfg: &RunConfig, n: usize) -> anyhow::Result<Vec<usize>> {
-    let heldout = cfg.data.holdout.indices(n)?;
-    let candidates: Vec<usize> = (0..n).filter(|i| !heldout.contains(i)).collect();
-    let keep = views_fraction(candidates.len(), cfg.data.views_fraction, cfg.seed)?;
-    Ok(keep.iter().map(|&k| candidates[k]).collect())
 }
 
 /// `reconstruct`'s mesh phase at refined resolution `fine_res`: two-pass marching cubes, the
@@ -117,56 +108,17 @@ fn extract(
     scene: &Scene,
     fine_res: usize,
 ) -> anyhow::Result<dtu_eval::mesh::TriMesh> {
-    let active = model.config.inference_schedule(step).active_levels;
-    let r = model.config.render.radius;
-    let sdf = |pts: &[[f32; 3]]| model.sdf(params, pts, active);
-    let two = extract_two_pass(
-        &sdf,
-        &TwoPassOptions {
-            min: [-r; 3],
-            max: [r; 3],
-            coarse_res: cfg.mesh.coarse_res,
-            fine_res,
-            pad_fraction: cfg.mesh.pad_fraction,
-            mc: McOptions {
-                close_radius: cfg.mesh.close_radius,
-                ..McOptions::default()
-            },
-        },
-    )?;
-    let mut mesh = two.mesh;
-    if cfg.mesh.clean {
-        let train = training_views(cfg, scene.views.len())?;
-        let masked: Vec<(&Camera, &GrayImage)> = train
-            .iter()
-            .filter_map(|&i| {
-                let v = &scene.views[i];
-                v.mask.as_ref().map(|m| (&v.camera, m))
-            })
-            .collect();
-        let cameras: Vec<&Camera> = train.iter().map(|&i| &scene.views[i].camera).collect();
-        let (closed, _) = clean_mesh(
-            &mesh,
-            &masked,
-            &cameras,
-            &CleanOptions {
-                min_area_share: cfg.mesh.clean_min_area_share,
-                mask_cull: cfg.mesh.clean_mask_cull,
-                dilate_px: cfg.mesh.clean_dilate_px,
-                frustum_cull: cfg.mesh.clean_mask_cull,
-                remove_enclosed: cfg.mesh.clean_enclosed,
-            },
-        );
-        let margin = cfg.mesh.clean_visible_margin_mm / scene.normalization.scale;
-        mesh = cull_unseen_parts(
-            &closed,
-            &cameras,
-            cfg.mesh.clean_min_visible_views,
-            margin,
-            cfg.mesh.clean_min_area_share,
-        )
-        .seen;
-    }
+    let raw = marching_cubes_of(cfg, model, params, step, fine_res)?;
+    let train = training_views(cfg, scene.views.len())?;
+    let masked: Vec<(&Camera, &GrayImage)> = train
+        .iter()
+        .filter_map(|&i| {
+            let v = &scene.views[i];
+            v.mask.as_ref().map(|m| (&v.camera, m))
+        })
+        .collect();
+    let cameras: Vec<&Camera> = train.iter().map(|&i| &scene.views[i].camera).collect();
+    let (_, mut mesh, _, _) = clean_cut(cfg, &raw, &masked, &cameras, scene.normalization.scale);
     to_world(&mut mesh, &scene.normalization);
     Ok(mesh)
 }

@@ -7,7 +7,8 @@ use super::prepare::Prepared;
 use super::{io_err, say, ReconstructError, RunConfig};
 use crate::mesh::clean::{clean_mesh, cull_unseen_parts, CleanOptions, CleanReport};
 use crate::mesh::{extract_two_pass, to_world, McOptions, TopologyReport, TriMesh, TwoPassOptions};
-use crate::scene::Camera;
+use crate::render::model::NeusModel;
+use crate::scene::{Camera, GrayImage};
 use crate::train::checkpoint::TrainState;
 use std::path::Path;
 use std::time::Instant;
@@ -34,20 +35,31 @@ pub(super) fn extract(
     p: &Prepared,
     state: &TrainState,
 ) -> Result<TriMesh, ReconstructError> {
-    let model = &p.model;
-    let active = model
-        .config
-        .inference_schedule(cfg.train.iterations)
-        .active_levels;
+    let fine = cfg.mesh.fine_res;
+    marching_cubes_of(cfg, &p.model, &state.params, cfg.train.iterations, fine)
+}
+
+/// The two-pass marching cubes of `reconstruct` (coarse over the box `[-r, r]³`, then
+/// `fine_res` points per axis over the coarse mesh's padded bounds, with the configured closing)
+/// on the SDF of `params` with the hash levels active at the end of `iterations` steps. The mesh
+/// is in the normalised frame.
+pub fn marching_cubes_of(
+    cfg: &RunConfig,
+    model: &NeusModel,
+    params: &[f32],
+    iterations: u64,
+    fine_res: usize,
+) -> Result<TriMesh, ReconstructError> {
+    let active = model.config.inference_schedule(iterations).active_levels;
     let r = model.config.render.radius;
-    let sdf = |pts: &[[f32; 3]]| model.sdf(&state.params, pts, active);
+    let sdf = |pts: &[[f32; 3]]| model.sdf(params, pts, active);
     let two = extract_two_pass(
         &sdf,
         &TwoPassOptions {
             min: [-r; 3],
             max: [r; 3],
             coarse_res: cfg.mesh.coarse_res,
-            fine_res: cfg.mesh.fine_res,
+            fine_res,
             pad_fraction: cfg.mesh.pad_fraction,
             mc: McOptions {
                 close_radius: cfg.mesh.close_radius,
@@ -56,6 +68,49 @@ pub(super) fn extract(
         },
     )?;
     Ok(two.mesh)
+}
+
+/// The clean-up of `reconstruct` on `raw` (normalised frame): rules 1–3 of `mesh::clean` with the
+/// masked training views and cameras, then rule 4's cut to the faces that
+/// `mesh.clean_min_visible_views` cameras see. `scale`: world mm per normalised unit. Returns
+/// `(closed, seen, report, faces cut by rule 4)`; without `mesh.clean`, `raw` twice.
+pub fn clean_cut(
+    cfg: &RunConfig,
+    raw: &TriMesh,
+    masked: &[(&Camera, &GrayImage)],
+    cameras: &[&Camera],
+    scale: f64,
+) -> (TriMesh, TriMesh, Option<CleanReport>, usize) {
+    if !cfg.mesh.clean {
+        return (raw.clone(), raw.clone(), None, 0);
+    }
+    let (closed, mut rep) = clean_mesh(
+        raw,
+        masked,
+        cameras,
+        &CleanOptions {
+            min_area_share: cfg.mesh.clean_min_area_share,
+            mask_cull: cfg.mesh.clean_mask_cull,
+            dilate_px: cfg.mesh.clean_dilate_px,
+            frustum_cull: cfg.mesh.clean_mask_cull,
+            remove_enclosed: cfg.mesh.clean_enclosed,
+        },
+    );
+    let margin = cfg.mesh.clean_visible_margin_mm / scale;
+    let cut = cull_unseen_parts(
+        &closed,
+        cameras,
+        cfg.mesh.clean_min_visible_views,
+        margin,
+        cfg.mesh.clean_min_area_share,
+    );
+    rep.faces_unseen = cut.faces_unseen;
+    rep.unseen_components_removed = cut.unseen_components_removed;
+    rep.faces_in_unseen_components = cut.faces_in_unseen_components;
+    rep.cut_specks_removed = cut.cut_specks_removed;
+    rep.faces_in_cut_specks = cut.faces_in_cut_specks;
+    rep.components_after -= cut.unseen_components_removed;
+    (cut.closed, cut.seen, Some(rep), cut.faces_unseen)
 }
 
 /// Stage 5: the clean-up of `raw` (rules 1–3, then rule 4's cut to what the training cameras
@@ -70,47 +125,9 @@ pub(super) fn clean_and_write(
 ) -> Result<Meshes, ReconstructError> {
     let topo_raw = TopologyReport::of(&raw);
     let cameras: Vec<&Camera> = p.cameras();
-    let (mut closed, mut clean) = if cfg.mesh.clean {
-        let (m, rep) = clean_mesh(
-            &raw,
-            &p.masked_views(),
-            &cameras,
-            &CleanOptions {
-                min_area_share: cfg.mesh.clean_min_area_share,
-                mask_cull: cfg.mesh.clean_mask_cull,
-                dilate_px: cfg.mesh.clean_dilate_px,
-                frustum_cull: cfg.mesh.clean_mask_cull,
-                remove_enclosed: cfg.mesh.clean_enclosed,
-            },
-        );
-        (m, Some(rep))
-    } else {
-        (raw.clone(), None)
-    };
-    // Rule 4 (`mesh::clean`): the scored mesh is the part the training cameras see; the closed
-    // surface it was cut from stays beside it, less its wholly unseen components, and the genus
-    // is measured on that.
-    let (mut mesh, unseen_faces) = match clean.as_mut() {
-        Some(rep) => {
-            let margin = cfg.mesh.clean_visible_margin_mm / p.scene.normalization.scale;
-            let cut = cull_unseen_parts(
-                &closed,
-                &cameras,
-                cfg.mesh.clean_min_visible_views,
-                margin,
-                cfg.mesh.clean_min_area_share,
-            );
-            rep.faces_unseen = cut.faces_unseen;
-            rep.unseen_components_removed = cut.unseen_components_removed;
-            rep.faces_in_unseen_components = cut.faces_in_unseen_components;
-            rep.cut_specks_removed = cut.cut_specks_removed;
-            rep.faces_in_cut_specks = cut.faces_in_cut_specks;
-            rep.components_after -= cut.unseen_components_removed;
-            closed = cut.closed;
-            (cut.seen, cut.faces_unseen)
-        }
-        None => (closed.clone(), 0),
-    };
+    let scale = p.scene.normalization.scale;
+    let (mut closed, mut mesh, mut clean, unseen_faces) =
+        clean_cut(cfg, &raw, &p.masked_views(), &cameras, scale);
     let norm = &p.scene.normalization;
     to_world(&mut closed, norm);
     to_world(&mut mesh, norm);

@@ -51,11 +51,13 @@ pub use config::{
     parse_set, resolve, resolve_resume, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig,
     Preset, RunConfig,
 };
+pub use extract::{clean_cut, marching_cubes_of};
 pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use metrics::{
     ChamferMetrics, HullInitSummary, MeshSummary, Metrics, Timings, TrainSummary, ViewMetrics,
 };
 pub use output::output_dir;
+pub use prepare::training_views;
 pub use preset::scale_run_length;
 pub use scene_ref::{resolve_scene, ResolvedScene, SceneKind};
 

@@ -64,6 +64,16 @@ impl Prepared {
     }
 }
 
+/// The training views of a scene of `n` views (indices into `Scene::views`, in training order):
+/// every view not held out (`data.holdout`), less those `data.views_fraction` leaves out (a draw
+/// seeded by `seed`, so `export` and a resumed run see the same set).
+pub fn training_views(cfg: &RunConfig, n: usize) -> Result<Vec<usize>, ReconstructError> {
+    let heldout = cfg.data.holdout.indices(n)?;
+    let candidates: Vec<usize> = (0..n).filter(|i| !heldout.contains(i)).collect();
+    let keep = views_fraction(candidates.len(), cfg.data.views_fraction, cfg.seed)?;
+    Ok(keep.iter().map(|&k| candidates[k]).collect())
+}
+
 /// Stage 1 (see the module doc).
 pub(super) fn prepare(cfg: &RunConfig, opts: &RunOptions) -> Result<Prepared, ReconstructError> {
     let (t, quiet) = (Instant::now(), opts.quiet);
@@ -91,11 +101,8 @@ pub(super) fn prepare(cfg: &RunConfig, opts: &RunOptions) -> Result<Prepared, Re
     );
 
     let t = Instant::now();
-    let n = scene.views.len();
-    let heldout = cfg.data.holdout.indices(n)?;
-    let candidates: Vec<usize> = (0..n).filter(|i| !heldout.contains(i)).collect();
-    let keep = views_fraction(candidates.len(), cfg.data.views_fraction, cfg.seed)?;
-    let train_idx: Vec<usize> = keep.iter().map(|&k| candidates[k]).collect();
+    let heldout = cfg.data.holdout.indices(scene.views.len())?;
+    let train_idx = training_views(cfg, scene.views.len())?;
     let mut images: Vec<RgbImage> = train_idx
         .iter()
         .map(|&i| scene.views[i].image.clone())

@@ -565,7 +565,11 @@ mod tests {
         );
         assert_eq!(torus.len(), 9);
         assert_eq!(hard[0].id, "blob-baseline-s0");
-        assert_eq!(hard[1].id, "blob-baseline-s1");
+        // Seed-major: every seed-0 run comes before any seed-1 run.
+        let first_s1 = hard.iter().position(|r| r.seed == 1).unwrap();
+        assert!(hard[..first_s1].iter().all(|r| r.seed == 0));
+        assert!(hard[first_s1..].iter().all(|r| r.seed >= 1));
+        assert_eq!(first_s1, hard.len() / 3);
         let t2 = count(Grid::Table2, 3);
         assert_eq!(t2.len(), sim::CATALOG.len() * 3 * 3);
         assert_eq!(t2[0].id, "blob-baseline-s0");
