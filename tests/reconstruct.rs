@@ -670,7 +670,11 @@ fn output_folder_that_is_a_file_is_an_error() {
     std::fs::write(&out, b"not a folder").unwrap();
     let o = reconstruct(&cfg, &out, &[]);
     assert!(!o.status.success());
-    assert!(stderr(&o).contains("is a file"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("exists and is not a folder"),
+        "{}",
+        stderr(&o)
+    );
     assert_eq!(
         std::fs::read(&out).unwrap(),
         b"not a folder",

@@ -576,7 +576,9 @@ mod tests {
         assert_eq!(t2[1].id, "blob-dia-s0");
         assert_eq!(t2[2].id, "blob-sia-s0");
         let red = count(Grid::Reduced, 3);
-        assert_eq!(red.len(), 4 * 2 * 3);
+        // 10 / 25 / 50 / 75 % and the 100 % cells (the latter reuse Table 2's runs).
+        assert_eq!(red.len(), 5 * 2 * 3);
+        assert_eq!(red.last().unwrap().views_fraction, Some(1.0));
         assert_eq!(red[0].views_fraction, Some(0.1));
         assert_eq!(red[1].arm, AugMode::Sia);
         assert_eq!(red[0].id, "blob-views10-baseline-s0");
