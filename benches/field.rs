@@ -1039,7 +1039,7 @@ fn fd_layout(cfg: &mut ModelConfig) {
 }
 
 /// One-sided finite differences as the `fast` preset takes them (`render.fd_central_every = 4`,
-/// `render.fd_one_sided_span = 2`; issue 14) against central ones (the network's default), on the
+/// `render.fd_one_sided_span = 2`) against central ones (the network's default), on the
 /// default network: without the curvature loss (the steps before the curvature ramp: every
 /// sample one-sided) and with it (the recipe's 5e-4: every fourth sample central, carrying the
 /// curvature term). Each pair measured back to back.

@@ -22,7 +22,7 @@ one by an unknown similarity (gauge freedom of structure from motion). This scri
 3. finds `s, R, t` minimising `Σ |C_true − (s·R·C_colmap + t)|²` (Umeyama, "Least-squares
    estimation of transformation parameters between two point patterns", IEEE TPAMI 13(4), 1991,
    eqs. 34–43), and reports the residual `|C_true − (s·R·C_colmap + t)|` in the true frame's unit
-   (mm for the simulator's scenes). This is the fit issue 16 names ("centres");
+   (mm for the simulator's scenes). This is the fit by the camera centres ("centres");
 4. fits a second similarity ("poses") to the centres plus one point per camera on its optical
    axis at the working distance, `A = C + D·z`: `D` is the mean distance of the COLMAP cameras
    to the point nearest all their optical axes (the object, for a capture that orbits it), and

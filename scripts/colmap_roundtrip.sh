@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Round trip through the real COLMAP (issue 16, first "Must show"):
+# Round trip through the real COLMAP:
 #   1. synthesise a built-in scene (true cameras, ground truth);
 #   2. run COLMAP on its images alone: CPU SIFT with one PINHOLE camera for all images (the
 #      simulator's lens), the scene's masks as feature masks, exhaustive matching, the
@@ -27,7 +27,7 @@
 #   6. score the meshes with the same DTU Chamfer protocol (`neus-aug eval`) against the true
 #      scene's ground truth and print: registered images, COLMAP's focal length, alignment
 #      residual, the Chamfer sums and the ratio COLMAP / true against the acceptance bound 1.3
-#      (judged on the centres alignment, issue 16's definition; the poses one printed beside).
+#      (judged on the alignment by the camera centres; the one by the whole poses printed beside).
 #
 #   scripts/colmap_roundtrip.sh WORKDIR [--scene NAME] [--preset P | --config FILE] [--seed S]
 #                                       [--iterations N] [--intrinsics estimate|known]

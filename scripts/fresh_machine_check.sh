@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The fresh-machine proof for the README's test command (issue 15): make this machine look like a
+# The fresh-machine proof for the README's test command: make this machine look like a
 # fresh one to the Python cross-checks, then run exactly the README's test command.
 #   - removes the project venv (target/py-venv, or $NEUS_AUG_VENV) and its lock file;
 #   - as root, purges Debian's libusb-1.0-0 (open3d needs it; _pyenv.py must install it itself,

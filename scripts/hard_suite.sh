@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The hard-shape suite of issue 13: synthesise each scene, print its floor, reconstruct it at a
+# The hard-shape suite: synthesise each scene, print its floor, reconstruct it at a
 # preset for the given seeds, and print one line per run (Chamfer sum against the floor, genus
 # of the written mesh's largest component against the truth, components before and after
 # clean-up, held-out normal error and silhouette IoU). The floor and the true genus come from the

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The portable builds of issue 14: the code paths a user without AVX2 or without x86 takes.
+# The portable builds: the code paths a user without AVX2 or without x86 takes.
 #   x86-64-v2: SSE4.2, no AVX, no FMA (`RUSTFLAGS="-C target-cpu=x86-64-v2"`): the library's unit
 #              tests, which test every kernel against its slow reference, run natively.
 #   aarch64:   the whole workspace cross-compiles (`cargo check --all-targets`), then the library's

@@ -1,4 +1,4 @@
-//! Training without masks with the learned background (issue 16) on a tiny `blob` with the
+//! Training without masks with the learned background on a tiny `blob` with the
 //! simulator's ground plane (a checker table in the images, never in the masks): the library
 //! loop trains to finite losses and the background colour at the table's pixels outside the box
 //! moves towards the table's colour; `reconstruct` with `data.masks=false` and the background

@@ -1,4 +1,4 @@
-//! The tiny version of issue 16's round trip through the real COLMAP, small enough for CI:
+//! The tiny version of the round trip through the real COLMAP, small enough for CI:
 //! `scripts/colmap_roundtrip.sh` on 16 views of the built-in `blob` (400×300, four samples per
 //! pixel) with the true intrinsics held fixed, COLMAP's CPU SIFT, exhaustive matching and mapper,
 //! `import colmap` of the binary and the text model (the script refuses if they differ; the
@@ -138,7 +138,7 @@ fn colmap_round_trip_on_a_tiny_scene_stays_within_the_bound() {
     //   0.955–1.126 over 16 runs, centres ratio 1.215–1.682;
     // - 800×600 or 24 views did worse (poses ratio 1.15–1.35 and 1.23–1.43)
     //   (`results/colmap/tiny-noise-2026-11-28`).
-    // Issue 16's bound, 1.3, is judged on the poses ratio, which uses the viewing directions
+    // The bound, 1.3, is judged on the poses ratio, which uses the viewing directions
     // too. The centres ratio, the issue's own definition and the full-size run's (README), swings
     // with the rotation a shallow cap of 16 centres pins poorly (in one run here the centres
     // fit turned 0.18° from the poses fit: 1.5 mm at the object's 490 mm); an importer slip

@@ -14,7 +14,7 @@ fn full_loss_gradient_matches_central_differences() {
     check_full_gradient(tiny_config());
 }
 
-/// The recipe terms of issue 13 on top of the default losses: curvature (Laplacian from the
+/// The recipe terms on top of the default losses: curvature (Laplacian from the
 /// taps and the centre), NeuS-style colour loss inside the mask, and both mask BCE forms.
 #[test]
 fn recipe_loss_gradients_match_central_differences() {
@@ -29,7 +29,7 @@ fn recipe_loss_gradients_match_central_differences() {
     }
 }
 
-/// Forward differences (`render.fd_central_every = 3`, issue 14): without the curvature loss
+/// Forward differences (`render.fd_central_every = 3`): without the curvature loss
 /// every sample takes three forward taps; with it every third sample takes central ones and
 /// carries the curvature term, weighted 3. Both backward passes against central differences of
 /// the loss in f64, and the forward scheme really is in use (the eikonal term differs from the
@@ -134,7 +134,7 @@ fn renders_ignore_the_training_tap_layout() {
     }
 }
 
-/// The learned background (issue 16): its two networks join the check, through the two-layer
+/// The learned background: its two networks join the check, through the two-layer
 /// compositing `C = C_fg + (1 − O_fg)·C_bg`; every ray counts as valid.
 #[test]
 fn background_gradient_matches_central_differences() {
@@ -166,7 +166,7 @@ fn progressive_levels_gradient_matches_central_differences() {
     check_full_gradient(cfg);
 }
 
-/// The view-dependence ramp (`render.view_dependence`, issue 13) at 0.4 of the way: the colour
+/// The view-dependence ramp (`render.view_dependence`) at 0.4 of the way: the colour
 /// network's direction terms are scaled, and the gradient of every group still matches.
 #[test]
 fn view_dependence_ramp_gradient_matches_central_differences() {
@@ -397,7 +397,7 @@ fn check_sdf_group_gradients(
     assert!(fails.is_empty(), "{}", fails.join("\n"));
 }
 
-/// The visual-hull fit's loss (issue 13): mean |f(x) − t| of the SDF channel, its gradient through
+/// The visual-hull fit's loss: mean |f(x) − t| of the SDF channel, its gradient through
 /// the SDF network and the hash grid against central differences in f64, with 2 of the tiny
 /// grid's 4 levels active (as the fit runs with the levels of training step 0). Targets are far
 /// from the field's values so no term sits at the kink of |·|. No other group gets a gradient.

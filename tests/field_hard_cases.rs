@@ -253,7 +253,7 @@ fn bg_density_bias(model: &NeusModel) -> usize {
         + mlp.dims[mlp.n_layers() - 1] * mlp.dims[mlp.n_layers()]
 }
 
-/// The learned background on hard rays (issue 16): through the box, starting inside it,
+/// The learned background on hard rays: through the box, starting inside it,
 /// running along a box edge, grazing a corner, missing the box, pointing away from it. With zero
 /// background density the render equals the model without a background (same foreground
 /// parameters: the layouts share their prefix); with saturated density a ray that misses the

@@ -1,4 +1,4 @@
-//! Regression test for the membrane across a hole (issue 13): a tiny `torus` (24 views at
+//! Regression test for the membrane across a hole: a tiny `torus` (24 views at
 //! 100×75, the held-out view looks through the hole) trained for 300 steps of the fast preset.
 //!
 //! With the references' clamped mask BCE (`model.loss.mask_bce = "clamp"`) a membrane closes the
@@ -7,7 +7,7 @@
 //! default squashed BCE the hole stays open (IoU 0.93, no face outside the masks). The test
 //! asserts the open hole, so it fails when the membrane returns.
 //!
-//! Also the truth a reconstruction is judged against (issue 13, part 5): the true genus and the
+//! Also the truth a reconstruction is judged against: the true genus and the
 //! Chamfer floor that `meta.json` records, and what `metrics.json` makes of them; and the depth
 //! prior's automatic switch, which must fire on a cup and not on a blob.
 
@@ -77,7 +77,7 @@ fn torus_hole_stays_open() {
     assert_eq!(m["mesh"]["largest_genus"].as_i64(), Some(1), "{m:#}");
 }
 
-/// The depth prior's automatic switch (`train.depth.auto`, issue 13) on two small scenes (24
+/// The depth prior's automatic switch (`train.depth.auto`) on two small scenes (24
 /// views at 100×75, the `fast` preset told its run is 300 steps long, so the check comes after
 /// step 200): on `cup` the field has closed the cavity and the switch fires, on `blob` it does
 /// not. Measured on the development machine: 22.9 % of the cup's rays with solid more than 0.2

@@ -85,7 +85,7 @@ fn same_seed_gives_the_same_mesh_and_all_outputs_exist() {
     for phase in ["load", "train", "mesh", "eval", "render", "total"] {
         assert!(m["timings_s"][phase].as_f64().unwrap() >= 0.0, "{phase}");
     }
-    // Issue 13's figures against the truth: the scene's floor and true genus (its meta.json),
+    // The figures against the truth: the scene's floor and true genus (its meta.json),
     // the ratio of the Chamfer sum to the floor, and whether the largest component's genus
     // matches.
     let meta: serde_json::Value =
@@ -334,7 +334,7 @@ fn negative_learning_rate_is_named() {
     );
 }
 
-/// The visual-hull init (issue 13) carves masks: without them it is refused by name, and a
+/// The visual-hull init carves masks: without them it is refused by name, and a
 /// bad value of its section is named too.
 #[test]
 fn visual_hull_init_without_masks_or_with_bad_values_is_named() {
@@ -353,7 +353,7 @@ fn visual_hull_init_without_masks_or_with_bad_values_is_named() {
     );
 }
 
-/// `train.init.kind = "sphere_or_hull"` (issue 13) measures how much of the init sphere the
+/// `train.init.kind = "sphere_or_hull"` measures how much of the init sphere the
 /// masks' visual hull covers and starts from the hull only below the threshold: with the
 /// threshold at 1 the tiny scene (whose object fills less than a 0.95 init sphere) takes the
 /// hull, at 0 the sphere, and `metrics.json` says which, with the cover. The sphere choice trains exactly as
@@ -473,7 +473,7 @@ fn prior_runs(section: &str) -> PriorRuns {
     }
 }
 
-/// The depth prior's automatic switch (`train.depth.auto`, issue 13). Its check runs after step
+/// The depth prior's automatic switch (`train.depth.auto`). Its check runs after step
 /// `round(0.1 · 24) = 2` of the tiny run. Switched on (a check that cannot fail to fire), the
 /// run gives the mesh bytes of a run that asks for the prior at the switch's weight from step
 /// 2; a check that cannot fire leaves the mesh of a run without the check; `metrics.json` and
@@ -590,7 +590,7 @@ fn depth_auto_switch_matches_the_prior_it_turns_on_and_resumes_the_same() {
     }
 }
 
-/// Error-map sampling (`train.error_map`, issue 13): it changes which pixels are trained (the
+/// Error-map sampling (`train.error_map`): it changes which pixels are trained (the
 /// mesh differs from the uniform sampler's), the same seed gives the same mesh, a run stopped
 /// between two rebuilds of the map (every 3 steps, stopped after 5 and 13) resumes to the mesh
 /// of an uninterrupted run (the distribution in use is part of the checkpoint), `metrics.json`
@@ -727,7 +727,7 @@ fn the_visibility_cut_is_a_switch_and_leaves_no_stale_closed_mesh() {
     );
 }
 
-/// The depth prior from stereo (`train.depth`, issue 13): on from step 8 of 24, the tiny run
+/// The depth prior from stereo (`train.depth`): on from step 8 of 24, the tiny run
 /// finishes, the same seed gives the same mesh bytes, the mesh differs from a run without it,
 /// `metrics.json` says what the stereo found and what the prior did at the last step, a run
 /// without masks still runs it (over every pixel), and bad values are refused by name.

@@ -1,4 +1,4 @@
-//! Run folders that never lose or lie, and inputs refused with the key and value named (issue 15).
+//! Run folders that never lose or lie, and inputs refused with the key and value named.
 //! Each test is one BAD or WEAK case of the issue: a clear error, and what was there left intact.
 //! Training runs use the tiny scene and configuration of `tests/common/tiny.rs` (a few seconds).
 

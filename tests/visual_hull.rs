@@ -1,4 +1,4 @@
-//! The visual-hull initialisation (issue 13, `train::hull`) on a simulated torus: the hull holds
+//! The visual-hull initialisation (`train::hull`) on a simulated torus: the hull holds
 //! the true surface and keeps the hole open, and the fitted SDF network has the hull's sign.
 
 use neus_aug::reconstruct::Preset;

@@ -1,4 +1,4 @@
-//! `dtu-eval` output files and usage errors (issue 15): `--json` never replaces a FIFO, a device or
+//! `dtu-eval` output files and usage errors: `--json` never replaces a FIFO, a device or
 //! a symbolic link; `--vis-dir` naming a file, and `--scan` without `--gt-root`, give messages
 //! that say what is wrong; each cause of an error is printed once.
 

@@ -65,7 +65,7 @@ pub fn tiny_config() -> ModelConfig {
     }
 }
 
-/// [`tiny_config`] with a small learned background (issue 16): 6 samples beyond the box, 2
+/// [`tiny_config`] with a small learned background: 6 samples beyond the box, 2
 /// frequencies, width-16 networks, 3 features.
 pub fn tiny_background_config() -> ModelConfig {
     use neus_aug::render::{BackgroundConfig, BackgroundKind};
