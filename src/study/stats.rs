@@ -56,6 +56,10 @@ pub struct Ci {
     pub hi: f64,
     /// Number of pairs.
     pub n: usize,
+    /// Pairs in the smallest non-empty stratum. A stratum of one pair never varies under
+    /// resampling, so an interval with `min_stratum < 2` understates the spread (a pooled interval
+    /// over scenes with one seed each has almost no width whatever the seeds would do).
+    pub min_stratum: usize,
 }
 
 /// The seed of the bootstrap stream for the comparison called `label`.
@@ -79,6 +83,7 @@ pub fn bootstrap_mean_ci(
     }
     let all: Vec<f64> = strata.iter().flat_map(|s| s.iter().copied()).collect();
     let m = mean(&all)?;
+    let min_stratum = strata.iter().map(|s| s.len()).min().unwrap_or(0);
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let mut means = Vec::with_capacity(resamples.max(1));
     for _ in 0..resamples.max(1) {
@@ -97,6 +102,7 @@ pub fn bootstrap_mean_ci(
         lo: quantile_sorted(&means, a),
         hi: quantile_sorted(&means, 1.0 - a),
         n,
+        min_stratum,
     })
 }
 
@@ -129,6 +135,7 @@ mod tests {
     fn a_constant_difference_has_a_zero_width_interval_at_that_constant() {
         let ci = paired_ci("c", &[vec![-0.25; 3], vec![-0.25; 5]]).unwrap();
         assert_eq!((ci.mean, ci.lo, ci.hi, ci.n), (-0.25, -0.25, -0.25, 8));
+        assert_eq!(ci.min_stratum, 3);
         assert!(paired_ci("e", &[vec![], vec![]]).is_none());
     }
 

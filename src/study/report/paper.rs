@@ -32,10 +32,27 @@ pub(super) fn detectable(ci: &Ci) -> f64 {
 /// paper's difference `paper_diff`? `agrees` / `disagrees` when the interval excludes 0 (or, for
 /// a claim of no difference, contains it), else `inconclusive`, with the smallest difference
 /// these runs could detect ([`detectable`]).
+///
+/// While a stratum (a scene, or a condition–scene cell) holds a single pair, the stratified
+/// bootstrap cannot see how that stratum's difference varies from seed to seed, and the interval
+/// is too narrow to judge by: the verdict is then `provisional`, whatever the interval says.
 pub(super) fn verdict(paper_diff: f64, ci: &Ci) -> String {
     let excludes_zero = ci.lo > 0.0 || ci.hi < 0.0;
     let mde = detectable(ci);
     let could = format!("could detect ≥ {mde:.3} mm");
+    if ci.min_stratum < 2 {
+        let direction = if paper_diff == 0.0 {
+            "the paper saw no change"
+        } else if (ci.mean < 0.0) == (paper_diff < 0.0) {
+            "same direction as the paper so far"
+        } else {
+            "opposite direction to the paper so far"
+        };
+        return format!(
+            "provisional: a scene has a single seed, so the interval understates the spread \
+             ({direction})"
+        );
+    }
     if paper_diff == 0.0 {
         match (excludes_zero, ci.mean < 0.0) {
             (false, _) => format!("agrees: no difference either way ({could})"),
@@ -140,8 +157,14 @@ pub(super) fn robustness_section(md: &mut String, lay: &Layout<'_>, degraded: bo
         .flatten()
         .filter(|v| v.starts_with("disagrees"))
         .count();
+    let provisional = verdicts
+        .iter()
+        .flatten()
+        .any(|v| v.starts_with("provisional"));
     let claim = if all == 0 {
         "no condition yet".to_string()
+    } else if provisional {
+        format!("provisional: some conditions have a scene with a single seed ({agree} of {all} agree so far)")
     } else if verdicts.iter().any(|v| v.is_none()) {
         format!("not all conditions have runs yet ({agree} of {all} agree so far)")
     } else if agree == all {
@@ -275,6 +298,7 @@ mod tests {
             lo,
             hi,
             n: 3,
+            min_stratum: 3,
         };
         assert!(verdict(-0.12, &ci(-0.3, -0.1)).starts_with("agrees"));
         assert!(verdict(-0.12, &ci(-0.3, 0.1)).contains("inconclusive"));
@@ -285,5 +309,26 @@ mod tests {
         assert!(verdict(0.0, &ci(-0.1, 0.1)).starts_with("agrees"));
         assert!(verdict(0.0, &ci(0.1, 0.2)).contains("worse"));
         assert!(verdict(0.0, &ci(-0.2, -0.1)).contains("better"));
+    }
+
+    /// One pair per scene: the stratified bootstrap has no within-scene spread to resample, so
+    /// an interval that excludes 0 must not become "agrees" or "disagrees".
+    #[test]
+    fn one_pair_per_scene_gives_a_provisional_verdict() {
+        let one_each: Vec<Vec<f64>> = [0.010, 0.006, 0.009].iter().map(|&d| vec![d]).collect();
+        let ci = stats::paired_ci("x", &one_each).unwrap();
+        assert_eq!(ci.min_stratum, 1);
+        // The interval is narrow and excludes 0 …
+        assert!(ci.lo > 0.0, "{ci:?}");
+        // … yet the verdict waits for a second seed.
+        let v = verdict(-0.12, &ci);
+        assert!(v.starts_with("provisional"), "{v}");
+        assert!(v.contains("opposite direction"), "{v}");
+        assert!(verdict(0.0, &ci).starts_with("provisional"));
+        // With two pairs in every scene the same differences are judged.
+        let two_each: Vec<Vec<f64>> = one_each.iter().map(|s| vec![s[0], s[0] + 0.002]).collect();
+        let ci2 = stats::paired_ci("x", &two_each).unwrap();
+        assert_eq!(ci2.min_stratum, 2);
+        assert!(verdict(-0.12, &ci2).starts_with("disagrees"));
     }
 }
