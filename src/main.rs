@@ -13,6 +13,14 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // A reader that stops early (`neus-aug study table2 --dry-run | head`) ends this program
+    // quietly, as it ends `ls` or `cat`: Rust ignores SIGPIPE by default, so every later
+    // `println!` would panic on the closed pipe instead.
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to its default before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,

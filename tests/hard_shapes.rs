@@ -331,4 +331,14 @@ fn meta_json_holds_the_true_genus_and_the_floor() {
         sim::SceneTruth::default(),
         "a folder without meta.json knows nothing"
     );
+    // A true mesh with open or non-manifold edges has no genus to judge against (the Stanford
+    // dragon's 108 edges shared by four faces give an Euler "genus" of 23).
+    let odd = tmp.path().join("odd");
+    std::fs::create_dir_all(&odd).unwrap();
+    for (closed, want) in [(false, None), (true, Some(23))] {
+        let meta =
+            serde_json::json!({"scan": 100, "mesh_genus": 23, "mesh_closed_oriented": closed});
+        std::fs::write(odd.join("meta.json"), meta.to_string()).unwrap();
+        assert_eq!(sim::SceneTruth::read(&odd).genus, want, "closed {closed}");
+    }
 }

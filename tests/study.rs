@@ -583,6 +583,9 @@ fn hard_report_from_known_numbers_and_an_old_record() {
         "Ratio to the seen floor: 4.40×.",
         // blob (2.20) is within 4× its floor, the torus baseline (5.50) is not.
         "Scenes within 4× their floor: 1/2.",
+        // The median and the worst of the per-scene ratios; genus over the baseline's runs
+        // that know it (blob 2 of 2, torus 3 of 3).
+        "Median ratio 3.85×, worst 5.50× (torus); the true genus in 5 of 5 runs.",
         // Genus on the scenes with holes: 8 of 9 on the torus.
         "| torus | 3/3 | 2/3 | 3/3 | 8/9 |",
         "| all | 3/3 | 2/3 | 3/3 | 8/9 |",
@@ -930,4 +933,87 @@ fn the_reduced_grid_reuses_table2_records_for_its_full_cells() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("records.jsonl"), "{e}");
+}
+
+/// `study outside` renders every mesh of `--meshes` once into the study folder's `scenes/`,
+/// plans the baseline on each, and keeps the rendered scenes when called again; a folder
+/// without meshes is refused with the way to fetch them.
+#[test]
+fn the_outside_grid_renders_each_mesh_once_and_plans_the_baseline() {
+    let tmp = tempfile::tempdir().unwrap();
+    let meshes = tmp.path().join("meshes");
+    std::fs::create_dir_all(&meshes).unwrap();
+    let err = fails(
+        &neus_aug()
+            .args(["study", "outside", "--dry-run", "--meshes"])
+            .arg(&meshes)
+            .arg("--out")
+            .arg(tmp.path().join("none"))
+            .output()
+            .unwrap(),
+    );
+    assert!(
+        err.contains("no .ply or .obj") && err.contains("fetch_outside.py"),
+        "{err}"
+    );
+    // An octahedron, stretched so it has an up axis.
+    let obj = "v 1 0 0\nv -1 0 0\nv 0 2 0\nv 0 -2 0\nv 0 0 1\nv 0 0 -1\n\
+               f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n";
+    std::fs::write(meshes.join("gem.obj"), obj).unwrap();
+    std::fs::write(meshes.join("notes.txt"), "not a mesh").unwrap();
+    let dir = tmp.path().join("outside");
+    let cmd = || {
+        let mut c = neus_aug();
+        c.args(["study", "outside", "--seeds", "2", "--dry-run", "--meshes"])
+            .arg(&meshes)
+            .arg("--out")
+            .arg(&dir);
+        c
+    };
+    let o = cmd().output().unwrap();
+    let err = ok(&o);
+    assert!(err.contains("rendering"), "{err}");
+    let plan = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(plan.contains("(2 runs)"), "{plan}");
+    for id in ["gem-baseline-s0", "gem-baseline-s1"] {
+        assert!(plan.contains(id), "{plan}");
+    }
+    assert!(plan.contains("--preset fast --aug none"), "{plan}");
+    let meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("scenes/gem/meta.json")).unwrap())
+            .unwrap();
+    assert_eq!(meta["mesh_genus"], 0);
+    // Called again: the scene is reused, not rendered again.
+    let before = std::fs::metadata(dir.join("scenes/gem/meta.json"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    let err = ok(&cmd().output().unwrap());
+    assert!(!err.contains("rendering"), "{err}");
+    let after = std::fs::metadata(dir.join("scenes/gem/meta.json"))
+        .unwrap()
+        .modified()
+        .unwrap();
+    assert_eq!(before, after);
+}
+
+/// A reader that stops early (`| head`) ends the listing quietly: no panic on the closed pipe.
+#[test]
+fn a_closed_pipe_ends_a_long_listing_without_a_panic() {
+    use std::io::{BufRead, BufReader};
+    // 20 seeds × 27 runs of ~200 bytes: more than a pipe's buffer, so writes hit the closed pipe.
+    let mut child = neus_aug()
+        .args(["study", "table2", "--seeds", "20", "--dry-run"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.starts_with("# study table2"), "{first}");
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
 }

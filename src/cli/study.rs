@@ -3,8 +3,9 @@
 use anyhow::Context;
 use neus_aug::augment::AugMode;
 use neus_aug::reconstruct::Preset;
+use neus_aug::sim::{self, GenerateOptions};
 use neus_aug::study::{self, grid, jobs, plan, report, Grid, StudyOptions};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Run one of the paper's experiment grids on the built-in scenes (each run a `reconstruct`
 /// with its own folder; finished runs are skipped, interrupted ones resume), or aggregate a
@@ -14,16 +15,18 @@ use std::path::PathBuf;
 /// views), degraded and degraded-mild (IA off/on × five degradations), pareto (Chamfer against
 /// time, one factor at a time), smoke (a quick check), hard (every built-in scene at the
 /// baseline, plus DIA/SIA on torus and double-torus: Chamfer against its floor, genus against
-/// the truth, components, normal error). Examples:
+/// the truth, components, normal error), outside (the hard report on every mesh of --meshes,
+/// each rendered into a scene of the study folder as `synth --mesh` does). Examples:
 ///
 ///   neus-aug study table2 --out studies/table2        (runs, resumable; then writes report/)
 ///   neus-aug study collect studies/table2             (tables and plots from what exists)
 ///   neus-aug study reduced --emit-jobs studies/red    (jobs.txt, slurm.sbatch, parallel.sh)
+///   python3 scripts/fetch_outside.py && neus-aug study outside   (meshes from outside)
 #[derive(Debug, clap::Args)]
 #[command(verbatim_doc_comment)]
 pub struct StudyArgs {
-    /// A grid (table2, reduced, degraded, degraded-mild, pareto, smoke, hard), `collect`, or
-    /// `list`.
+    /// A grid (table2, reduced, degraded, degraded-mild, pareto, smoke, hard, outside),
+    /// `collect`, or `list`.
     pub grid: String,
     /// For `collect`: the study folder.
     pub dir: Option<PathBuf>,
@@ -31,7 +34,11 @@ pub struct StudyArgs {
     /// built-in scene for table2 and hard, the default scene otherwise).
     #[arg(long)]
     pub scenes: Option<String>,
-    /// Seeds per cell, 0..N (default: 3; pareto 1; smoke 2).
+    /// For `outside`: the folder of meshes (.ply, .obj) to render and reconstruct, one scene
+    /// each under STUDY/scenes/ (made once; an existing scene is kept).
+    #[arg(long, value_name = "DIR", default_value = "target/outside")]
+    pub meshes: PathBuf,
+    /// Seeds per cell, 0..N (default: 3; pareto 1; smoke and outside 2).
     #[arg(long)]
     pub seeds: Option<u32>,
     /// Preset every run starts from.
@@ -100,33 +107,26 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         );
     }
     let mut opts = StudyOptions::new(g);
+    opts.preset = args.preset;
+    let dir = study_dir(&args, g, &opts)?;
     if let Some(list) = &args.scenes {
         opts.scenes = grid::parse_scenes(list, &args.data_root)?;
+    } else if g == Grid::Outside {
+        opts.scenes = Vec::new();
+        for folder in outside_scenes(&args.meshes, &dir.join("scenes"), args.quiet)? {
+            opts.scenes
+                .extend(grid::parse_scenes(&folder, &args.data_root)?);
+        }
     }
     if let Some(n) = args.seeds {
         opts.seeds = n;
     }
-    opts.preset = args.preset;
     opts.ia = args.ia;
     opts.sets = args.set.clone();
     opts.base_config = args.config.is_some();
     if let Some(c) = &args.config {
         anyhow::ensure!(c.is_file(), "--config {}: no such file", c.display());
     }
-    let dir = match (&args.out, &args.emit_jobs) {
-        (Some(o), Some(e)) if o != e => {
-            anyhow::bail!(
-                "--out {} and --emit-jobs {} name different folders; give one",
-                o.display(),
-                e.display()
-            )
-        }
-        (_, Some(e)) => e.clone(),
-        (Some(o), None) => o.clone(),
-        (None, None) => {
-            PathBuf::from("studies").join(format!("{}-{}", g.name(), opts.preset.name()))
-        }
-    };
     let (plan, cfgs) = plan::make_plan(&opts, args.config.as_deref(), &dir)?;
     if args.dry_run {
         println!(
@@ -173,6 +173,75 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     )
     .with_context(|| format!("study {} in {}", g, dir.display()))?;
     Ok(())
+}
+
+/// The study folder: `--out` or `--emit-jobs` (the same when both are given), else
+/// `studies/<grid>-<preset>`.
+fn study_dir(args: &StudyArgs, g: Grid, opts: &StudyOptions) -> anyhow::Result<PathBuf> {
+    Ok(match (&args.out, &args.emit_jobs) {
+        (Some(o), Some(e)) if o != e => {
+            anyhow::bail!(
+                "--out {} and --emit-jobs {} name different folders; give one",
+                o.display(),
+                e.display()
+            )
+        }
+        (_, Some(e)) => e.clone(),
+        (Some(o), None) => o.clone(),
+        (None, None) => {
+            PathBuf::from("studies").join(format!("{}-{}", g.name(), opts.preset.name()))
+        }
+    })
+}
+
+/// The `outside` grid's scenes: every `.ply` and `.obj` file of `meshes` (sorted by name)
+/// rendered, as `neus-aug synth --mesh FILE` renders it (the default scene's rig, lighting and
+/// effects), into `scenes/<file stem>`. A scene folder that already holds a finished scene
+/// (`meta.json`) is kept, so a study resumes without rendering again. Returns the folders.
+fn outside_scenes(meshes: &Path, scenes: &Path, quiet: bool) -> anyhow::Result<Vec<String>> {
+    let fetch = "python3 scripts/fetch_outside.py downloads the outside set into target/outside";
+    let entries = std::fs::read_dir(meshes).with_context(|| {
+        format!(
+            "--meshes {}: cannot read the folder ({fetch})",
+            meshes.display()
+        )
+    })?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.is_file()
+                && p.extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("ply") || e.eq_ignore_ascii_case("obj"))
+        })
+        .collect();
+    files.sort();
+    anyhow::ensure!(
+        !files.is_empty(),
+        "--meshes {}: no .ply or .obj file ({fetch})",
+        meshes.display()
+    );
+    let mut out = Vec::with_capacity(files.len());
+    for (i, mesh) in files.iter().enumerate() {
+        let mut desc = sim::builtin(sim::DEFAULT_SCENE)?;
+        super::synth::use_mesh(&mut desc, mesh);
+        let folder = scenes.join(&desc.name);
+        if !folder.join("meta.json").is_file() {
+            if !quiet {
+                eprintln!(
+                    "[outside] {}/{}: rendering {} into {}",
+                    i + 1,
+                    files.len(),
+                    mesh.display(),
+                    folder.display()
+                );
+            }
+            desc.validate()?;
+            sim::generate_atomic(&desc, &folder, &GenerateOptions { progress: None })
+                .with_context(|| format!("cannot render the scene of {}", mesh.display()))?;
+        }
+        out.push(folder.display().to_string());
+    }
+    Ok(out)
 }
 
 fn run_collect(args: &StudyArgs) -> anyhow::Result<()> {

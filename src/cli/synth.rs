@@ -101,15 +101,7 @@ fn describe(args: &SynthArgs) -> anyhow::Result<SceneDescription> {
         None => bail!("give a scene name (see `neus-aug synth --list`), a scene .toml, or --mesh"),
     };
     if let Some(mesh) = &args.mesh {
-        desc.object.shape = None;
-        desc.object.mesh = Some(mesh.clone());
-        let stem = mesh
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "mesh".into());
-        desc.name = stem;
-        desc.scan = 100;
-        desc.summary = format!("mesh {}", mesh.display());
+        use_mesh(&mut desc, mesh);
         if let Some(up) = &args.up_axis {
             desc.object.up_axis = toml::Value::String(up.clone())
                 .try_into()
@@ -144,6 +136,19 @@ fn describe(args: &SynthArgs) -> anyhow::Result<SceneDescription> {
         );
     }
     Ok(desc)
+}
+
+/// Makes `desc` render `mesh` instead of its own object (named after the file, scan 100), with
+/// the scene's rig, lighting and effects.
+pub(super) fn use_mesh(desc: &mut SceneDescription, mesh: &Path) {
+    desc.object.shape = None;
+    desc.object.mesh = Some(mesh.to_path_buf());
+    desc.name = mesh
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "mesh".into());
+    desc.scan = 100;
+    desc.summary = format!("mesh {}", mesh.display());
 }
 
 pub fn run(args: SynthArgs) -> anyhow::Result<()> {

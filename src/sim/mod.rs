@@ -183,7 +183,9 @@ pub fn chamfer_floor(
 pub struct SceneTruth {
     /// The DTU scan number of the ground-truth files.
     pub scan: Option<u32>,
-    /// Genus of the true mesh's largest component.
+    /// Genus of the true mesh's largest component; `None` when the true mesh is not a closed,
+    /// consistently oriented surface (`mesh_closed_oriented` false: open edges or edges shared
+    /// by more than two faces), where the Euler characteristic gives no genus.
     pub genus: Option<i64>,
     /// The Chamfer floor.
     pub floor: Option<Floor>,
@@ -204,7 +206,10 @@ impl SceneTruth {
                 .get("scan")
                 .and_then(|s| s.as_u64())
                 .and_then(|s| u32::try_from(s).ok()),
-            genus: v.get("mesh_genus").and_then(|g| g.as_i64()),
+            genus: v
+                .get("mesh_genus")
+                .and_then(|g| g.as_i64())
+                .filter(|_| v.get("mesh_closed_oriented") != Some(&serde_json::Value::Bool(false))),
             floor: v
                 .get("floor")
                 .and_then(|f| serde_json::from_value::<Floor>(f.clone()).ok())

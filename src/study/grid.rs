@@ -35,6 +35,11 @@ pub enum Grid {
     /// adds the Chamfer floor, the ratio to it, genus against the truth, components before and
     /// after clean-up and the held-out normal error.
     Hard,
+    /// The `hard` report on meshes from outside the project: every mesh of a folder (by default
+    /// the set `scripts/fetch_outside.py` downloads) rendered with `synth --mesh` into a scene of
+    /// the study folder, then reconstructed at the baseline; the report adds the median and
+    /// worst ratio to the floor and the share of runs with the true genus.
+    Outside,
 }
 
 /// Scenes on which the `hard` grid also runs DIA and SIA: the ones whose holes must open (the
@@ -43,7 +48,7 @@ pub const HARD_IA_SCENES: [&str; 2] = ["torus", "double-torus"];
 
 impl Grid {
     /// Every grid, in the order `--help` lists them.
-    pub const ALL: [Grid; 7] = [
+    pub const ALL: [Grid; 8] = [
         Grid::Table2,
         Grid::Reduced,
         Grid::Degraded,
@@ -51,6 +56,7 @@ impl Grid {
         Grid::Pareto,
         Grid::Smoke,
         Grid::Hard,
+        Grid::Outside,
     ];
 
     /// The name on the command line.
@@ -63,6 +69,7 @@ impl Grid {
             Grid::Pareto => "pareto",
             Grid::Smoke => "smoke",
             Grid::Hard => "hard",
+            Grid::Outside => "outside",
         }
     }
 
@@ -79,25 +86,31 @@ impl Grid {
                 "geometry against the truth on every scene (floor, genus, components, normals); \
                  DIA/SIA on torus and double-torus"
             }
+            Grid::Outside => {
+                "the hard grid's report on outside meshes (--meshes DIR, default target/outside, \
+                 from scripts/fetch_outside.py), rendered with synth --mesh; baseline only"
+            }
         }
     }
 
-    /// Scenes when `--scenes` is not given: every built-in scene for `table2` and `hard`, the
-    /// default scene otherwise (the reduced and degraded grids are 8–10 runs per scene and seed;
-    /// `--scenes all` widens them).
+    /// Scenes when `--scenes` is not given: every built-in scene for `table2` and `hard`, none
+    /// for `outside` (its scenes are made from `--meshes`), the default scene otherwise (the
+    /// reduced and degraded grids are 8–10 runs per scene and seed; `--scenes all` widens them).
     pub fn default_scenes(self) -> Vec<String> {
         match self {
             Grid::Table2 | Grid::Hard => sim::CATALOG.iter().map(|e| e.name.to_string()).collect(),
+            Grid::Outside => Vec::new(),
             _ => vec![sim::DEFAULT_SCENE.to_string()],
         }
     }
 
     /// Seeds when `--seeds` is not given: 3 for the paper's grids, 1 for
-    /// `pareto` (twelve configurations; timings matter more than seeds there), 2 for `smoke`.
+    /// `pareto` (twelve configurations; timings matter more than seeds there), 2 for `smoke` and
+    /// `outside` (twenty meshes; the set's breadth matters more than seeds there).
     pub fn default_seeds(self) -> u32 {
         match self {
             Grid::Pareto => 1,
-            Grid::Smoke => 2,
+            Grid::Smoke | Grid::Outside => 2,
             _ => 3,
         }
     }
@@ -406,6 +419,15 @@ pub fn expand(opts: &StudyOptions, base: &RunConfig) -> Vec<RunDraft> {
             false,
             vec![AugMode::None, AugMode::Dia, AugMode::Sia],
         )],
+        Grid::Outside => vec![(
+            "full".into(),
+            p,
+            None,
+            None,
+            vec![],
+            false,
+            vec![AugMode::None],
+        )],
         Grid::Reduced => [0.10, 0.25, 0.50, 0.75, 1.0]
             .into_iter()
             .map(|f| {
@@ -477,7 +499,7 @@ pub fn expand(opts: &StudyOptions, base: &RunConfig) -> Vec<RunDraft> {
                         _ => format!("-{}", arm_name(arm)),
                     };
                     let cond_part = match opts.grid {
-                        Grid::Table2 | Grid::Hard => String::new(),
+                        Grid::Table2 | Grid::Hard | Grid::Outside => String::new(),
                         _ => format!("-{}", slug(cond)),
                     };
                     let id = format!("{}{cond_part}{arm_part}-s{seed}", slug(&label));
@@ -537,6 +559,28 @@ mod tests {
             assert!(e.contains(g.name()), "{e}");
         }
         assert!(e.contains("table3"), "{e}");
+    }
+
+    #[test]
+    fn the_outside_grid_runs_the_baseline_on_every_given_scene() {
+        let mut o = StudyOptions::new(Grid::Outside);
+        assert!(o.scenes.is_empty(), "its scenes come from --meshes");
+        assert_eq!(o.seeds, 2);
+        o.scenes = vec!["/s/bunny".into(), "/s/anchor".into()];
+        let runs = expand(&o, &Preset::Fast.config());
+        let ids: Vec<&str> = runs.iter().map(|r| r.id.as_str()).collect();
+        assert_eq!(
+            ids,
+            [
+                "bunny-baseline-s0",
+                "anchor-baseline-s0",
+                "bunny-baseline-s1",
+                "anchor-baseline-s1"
+            ]
+        );
+        assert!(runs
+            .iter()
+            .all(|r| r.arm == AugMode::None && r.condition == "full"));
     }
 
     #[test]

@@ -14,6 +14,7 @@ pub mod error_map;
 pub mod hull;
 pub mod loss;
 pub mod metrics;
+pub mod pose;
 pub mod schedule;
 pub mod trainer;
 

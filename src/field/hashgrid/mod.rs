@@ -35,6 +35,7 @@ use super::Real;
 use rand::Rng;
 
 pub(crate) mod level;
+mod position_grad;
 mod stencil;
 
 pub use level::{Level, Sides, PRIMES};

@@ -90,6 +90,28 @@ pub(super) struct SuiteMean {
     /// Scenes with a ratio, and those whose mean ratio is at most [`RATIO_TARGET`].
     pub(super) scenes: usize,
     pub(super) scenes_within_target: usize,
+    /// Median and largest per-scene mean ratio to the floor, and the scene with the largest.
+    pub(super) ratio_median: Option<f64>,
+    pub(super) ratio_worst: Option<f64>,
+    pub(super) worst_scene: Option<String>,
+    /// Runs of the arm whose largest component has the true genus, of those with a verdict.
+    pub(super) genus_right_runs: usize,
+    pub(super) genus_known_runs: usize,
+}
+
+/// Median of `x` (the mean of the two middle values for an even count); `None` when empty.
+fn median(x: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
 }
 
 /// The arm the suite means are taken over: the baseline when the study has one.
@@ -168,6 +190,11 @@ pub(super) fn summarise(lay: &Layout<'_>) -> GeometrySummary {
             let v: Vec<f64> = per_scene.iter().filter_map(|x| f(x)).collect();
             super::super::stats::mean(&v)
         };
+        let ratios: Vec<f64> = per_scene.iter().filter_map(|x| x.ratio_mean).collect();
+        let worst = per_scene
+            .iter()
+            .filter_map(|x| Some((x.ratio_mean?, x.scene.clone())))
+            .max_by(|a, b| a.0.total_cmp(&b.0));
         suite.push(SuiteMean {
             condition: c.clone(),
             arm: super::super::grid::arm_name(sa).into(),
@@ -180,6 +207,11 @@ pub(super) fn summarise(lay: &Layout<'_>) -> GeometrySummary {
                 .iter()
                 .filter(|x| x.ratio_mean.is_some_and(|r| r <= RATIO_TARGET))
                 .count(),
+            ratio_median: median(&ratios),
+            ratio_worst: worst.as_ref().map(|w| w.0),
+            worst_scene: worst.map(|w| w.1),
+            genus_right_runs: per_scene.iter().map(|x| x.genus_matches).sum(),
+            genus_known_runs: per_scene.iter().map(|x| x.genus_known).sum(),
         });
     }
     GeometrySummary { cells, suite }
@@ -275,7 +307,7 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
             md,
             "Suite mean{} ({}, {} scene(s) with a ratio): ratio to the floor **{}**; Chamfer {} mm \
              against a mean floor of {} mm. Scenes within {}× their floor: {}/{}. Ratio to the \
-             seen floor: {}.\n",
+             seen floor: {}. Median ratio {}, worst {}; the true genus in {} of {} runs.\n",
             if many_conds {
                 format!(" of {}", m.condition)
             } else {
@@ -290,6 +322,13 @@ pub(super) fn geometry_section(md: &mut String, lay: &Layout<'_>) {
             m.scenes_within_target,
             m.scenes,
             m.ratio_seen_mean.map_or("—".into(), |x| format!("{x:.2}×")),
+            m.ratio_median.map_or("—".into(), |x| format!("{x:.2}×")),
+            match (m.ratio_worst, &m.worst_scene) {
+                (Some(x), Some(s)) => format!("{x:.2}× ({s})"),
+                _ => "—".into(),
+            },
+            m.genus_right_runs,
+            m.genus_known_runs,
         );
     }
 
@@ -469,4 +508,17 @@ pub(super) fn report_md(lay: &Layout<'_>, missing: &[String]) -> (String, Vec<Di
          `summary.json` (every aggregate, `geometry` for the tables above), `chamfer.png`."
     );
     (md, diffs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_and_even_counts_ignores_non_finite_values() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), Some(2.5));
+        assert_eq!(median(&[f64::NAN, 5.0]), Some(5.0));
+        assert_eq!(median(&[]), None);
+    }
 }

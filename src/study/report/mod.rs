@@ -137,8 +137,9 @@ pub fn collect_with_reference(
         .map(|r| r.id.clone())
         .collect();
     let pareto = plan::is_pareto(&plan).then(|| pareto::pareto_points(&lay));
-    let with_geometry = o.grid == Grid::Hard || records.iter().any(|r| r.geometry.is_some());
-    let (md, diffs) = if o.grid == Grid::Hard {
+    let hard_report = matches!(o.grid, Grid::Hard | Grid::Outside);
+    let with_geometry = hard_report || records.iter().any(|r| r.geometry.is_some());
+    let (md, diffs) = if hard_report {
         hard::report_md(&lay, &missing)
     } else {
         markdown::report_md(&lay, &rows, &missing, pareto.as_deref())

@@ -252,7 +252,9 @@ fn read_record(
         time_render: t.render,
         time_total: t.total,
         time_to_mesh: t.load + t.prepare + t.train + t.mesh,
-        geometry: (grid == Grid::Hard || m.floor_mm.is_some() || m.gt_genus.is_some())
-            .then(|| GeometryRecord::of(&m)),
+        geometry: (matches!(grid, Grid::Hard | Grid::Outside)
+            || m.floor_mm.is_some()
+            || m.gt_genus.is_some())
+        .then(|| GeometryRecord::of(&m)),
     })
 }
