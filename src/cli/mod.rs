@@ -9,6 +9,7 @@ mod import;
 mod inspect;
 mod mcubes;
 mod reconstruct;
+mod stereo_check;
 mod study;
 mod synth;
 
@@ -44,6 +45,9 @@ pub enum Command {
     /// Marching cubes on an analytic SDF (cross-check hook for scripts/crosscheck_mcubes.py).
     #[command(hide = true)]
     Mcubes(mcubes::McubesArgs),
+    /// The depth prior's stereo against a synthetic scene's true mesh (diagnosis hook).
+    #[command(hide = true)]
+    StereoCheck(stereo_check::StereoCheckArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -57,5 +61,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Study(args) => study::run(*args),
         Command::Augment(args) => augment::run(args),
         Command::Mcubes(args) => mcubes::run(args),
+        Command::StereoCheck(args) => stereo_check::run(args),
     }
 }
