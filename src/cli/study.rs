@@ -224,6 +224,12 @@ fn outside_scenes(meshes: &Path, scenes: &Path, quiet: bool) -> anyhow::Result<V
     for (i, mesh) in files.iter().enumerate() {
         let mut desc = sim::builtin(sim::DEFAULT_SCENE)?;
         super::synth::use_mesh(&mut desc, mesh);
+        // `--scenes` lists are comma-separated, and so is the plan's scene list.
+        anyhow::ensure!(
+            !desc.name.contains(','),
+            "{}: a mesh file name with a comma cannot name a scene; rename the file",
+            mesh.display()
+        );
         let folder = scenes.join(&desc.name);
         if !folder.join("meta.json").is_file() {
             if !quiet {

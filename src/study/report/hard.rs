@@ -99,19 +99,12 @@ pub(super) struct SuiteMean {
     pub(super) genus_known_runs: usize,
 }
 
-/// Median of `x` (the mean of the two middle values for an even count); `None` when empty.
+/// Median of the finite values of `x` (type-7 quantile at ½: the mean of the two middle values
+/// for an even count); `None` when there is none.
 fn median(x: &[f64]) -> Option<f64> {
     let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
-    if v.is_empty() {
-        return None;
-    }
     v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
+    (!v.is_empty()).then(|| super::super::stats::quantile_sorted(&v, 0.5))
 }
 
 /// The arm the suite means are taken over: the baseline when the study has one.
