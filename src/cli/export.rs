@@ -187,6 +187,7 @@ pub fn run(args: ExportArgs) -> anyhow::Result<()> {
         &cfg.train.optimizer,
         &cfg.training_hash(),
         None,
+        None,
     )
     .with_context(|| {
         format!(

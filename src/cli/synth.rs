@@ -58,6 +58,25 @@ pub struct SynthArgs {
     /// `transforms` writes DIR/transforms.json. Repeatable.
     #[arg(long, value_enum)]
     pub export: Vec<ExportFormat>,
+    /// Perturb every pose after rendering by exactly DEG degrees (about a random axis through
+    /// the camera's centre) and DIST world units (mm; a random direction), seeded by --seed: the
+    /// scene's cameras_sphere.npz then holds the perturbed poses and cameras_sphere_true.npz the
+    /// true ones, which `reconstruct` with `train.pose_refine.enabled = true` measures against.
+    #[arg(long, value_name = "DEG,DIST", value_parser = parse_perturbation)]
+    pub perturb_poses: Option<[f64; 2]>,
+}
+
+fn parse_perturbation(s: &str) -> Result<[f64; 2], String> {
+    let bad = || format!("'{s}' is not DEG,DIST (e.g. 0.5,3: half a degree and 3 mm)");
+    let (a, b) = s.split_once(',').ok_or_else(bad)?;
+    let (a, b): (f64, f64) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
+    if !(a.is_finite() && b.is_finite() && a >= 0.0 && b >= 0.0) {
+        return Err(format!("'{s}': both must be finite and ≥ 0"));
+    }
+    Ok([a, b])
 }
 
 /// Camera formats `synth --export` writes.
@@ -210,6 +229,17 @@ pub fn run(args: SynthArgs) -> anyhow::Result<()> {
             "floor: not computed ({e}); ground-truth genus {}",
             report.mesh_genus
         ),
+    }
+    if let Some([deg, dist]) = args.perturb_poses {
+        let e = neus_aug::import::perturb::perturb_scene(&out, deg, dist, desc.seed)
+            .with_context(|| format!("cannot perturb the poses of {}", out.display()))?;
+        println!(
+            "perturbed every pose by {:.3}° and {:.3} mm (true cameras: {})",
+            e.rotation_deg,
+            e.centre,
+            out.join(neus_aug::import::perturb::TRUE_CAMERA_FILE)
+                .display()
+        );
     }
     for format in &args.export {
         let written = match format {

@@ -123,18 +123,41 @@ fn ground_truth_points(scene: &Path) -> Result<Vec<[f64; 3]>, ImportError> {
         .collect())
 }
 
-/// Writes `out/sparse/0/{cameras,images,points3D}.txt` for the scene: PINHOLE cameras (one per
-/// distinct intrinsics), images named like the scene's `image/` files (so `--images
-/// <scene>/image` imports them), and [`COLMAP_POINTS`] ground-truth points whose tracks list the
-/// images they project into (inside the image, in front of the camera; occlusion is not tested).
-/// Returns the model folder.
+/// Writes `out/sparse/0/{cameras,images,points3D}.txt` for the scene ([`colmap_model`]):
+/// images named like the scene's `image/` files (so `--images <scene>/image` imports them), and
+/// [`COLMAP_POINTS`] ground-truth points. Returns the model folder.
 pub fn export_colmap(scene: &Path, out: &Path) -> Result<PathBuf, ImportError> {
     let sc = read_scene_cameras(scene)?;
     let points = ground_truth_points(scene)?;
+    let names: Vec<String> = sc
+        .images
+        .iter()
+        .map(|p| {
+            p.file_name()
+                .expect("a listed file")
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    let model = colmap_model(&sc.cameras, &names, &points)?;
+    let dir = out.join("sparse").join("0");
+    colmap::write_text(&model, &dir)?;
+    Ok(dir)
+}
+
+/// A COLMAP model of world-space `cameras` (image `i` named `names[i]`): PINHOLE cameras, one
+/// per distinct intrinsics and size, and `points` whose tracks list the images they project
+/// into (inside the image, in front of the camera; occlusion is not tested). A camera with skew
+/// (beyond a decomposition's round-off, `1e-9·fx`) is refused: PINHOLE cannot hold it.
+pub fn colmap_model(
+    cameras: &[Camera],
+    names: &[String],
+    points: &[[f64; 3]],
+) -> Result<ColmapModel, ImportError> {
     let mut model = ColmapModel::default();
     let mut camera_ids: Vec<(Camera, u32)> = Vec::new();
-    for (i, cam) in sc.cameras.iter().enumerate() {
-        if cam.k[(0, 1)] != 0.0 {
+    for (i, cam) in cameras.iter().enumerate() {
+        if cam.k[(0, 1)].abs() > 1e-9 * cam.k[(0, 0)] {
             return Err(ImportError::Export(format!(
                 "view {i} has skew {}, which COLMAP's PINHOLE model cannot hold",
                 cam.k[(0, 1)]
@@ -165,18 +188,14 @@ pub fn export_colmap(scene: &Path, out: &Path) -> Result<PathBuf, ImportError> {
             qvec: colmap::quaternion(&cam.r),
             tvec: [t.x, t.y, t.z],
             camera_id,
-            name: sc.images[i]
-                .file_name()
-                .expect("a listed file")
-                .to_string_lossy()
-                .into_owned(),
+            name: names[i].clone(),
             points2d: Vec::new(),
         });
     }
     let mut tracks: BTreeMap<u64, Vec<(u32, u32)>> = BTreeMap::new();
     for (j, p) in points.iter().enumerate() {
         let id = j as u64 + 1;
-        for (i, cam) in sc.cameras.iter().enumerate() {
+        for (i, cam) in cameras.iter().enumerate() {
             if let Some((u, v, _)) = cam.project(&Vector3::from(*p)) {
                 if u >= 0.0 && v >= 0.0 && u < cam.width as f64 && v < cam.height as f64 {
                     let im = &mut model.images[i];
@@ -199,9 +218,7 @@ pub fn export_colmap(scene: &Path, out: &Path) -> Result<PathBuf, ImportError> {
             track: tracks.remove(&id).unwrap_or_default(),
         });
     }
-    let dir = out.join("sparse").join("0");
-    colmap::write_text(&model, &dir)?;
-    Ok(dir)
+    Ok(model)
 }
 
 /// Writes `out/transforms.json` for the scene (OpenGL poses, intrinsics shared when equal,

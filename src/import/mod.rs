@@ -26,6 +26,7 @@ pub mod colmap;
 pub mod colmap_binary;
 mod colmap_model;
 pub mod export;
+pub mod perturb;
 pub mod transforms;
 pub mod undistort;
 

@@ -453,6 +453,9 @@ impl RunConfig {
         if let Some((key, value, why)) = t.error_map.invalid() {
             return Err(invalid(key, value, why));
         }
+        if let Some((key, value, why)) = t.pose_refine.invalid() {
+            return Err(invalid(key, value, why));
+        }
         if let Some((key, value, why)) = t.depth.invalid() {
             return Err(invalid(&key, value, why));
         }

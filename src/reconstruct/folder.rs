@@ -113,6 +113,7 @@ impl RunFolder {
                 &cfg.train.optimizer,
                 &hash,
                 em.enabled().then_some((em, &sizes[..])),
+                cfg.train.pose_refine.enabled.then_some(sizes.len()),
             )?)
         } else {
             None

@@ -111,6 +111,61 @@ pub struct TrainSummary {
     /// Error-map sampling at the end of training (`train.error_map`); absent when off.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub error_map: Option<crate::train::error_map::ErrorMapSummary>,
+    /// What pose refinement learned (`train.pose_refine`); absent when off.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose_refine: Option<PoseRefineSummary>,
+}
+
+/// The corrections pose refinement learned (`train::pose_refine`), over the training views; the
+/// refined cameras are in the run folder's `refined/`.
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct PoseRefineSummary {
+    pub views: usize,
+    /// Mean and largest rotation of a correction, degrees.
+    pub mean_rotation_deg: f64,
+    pub max_rotation_deg: f64,
+    /// Mean and largest move of a camera's centre, world units (mm on DTU).
+    pub mean_translation: f64,
+    pub max_translation: f64,
+    /// Against the true cameras of a scene whose poses were perturbed (`synth
+    /// --perturb-poses`): mean error of the training views before and after refinement.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub truth: Option<PoseTruth>,
+}
+
+/// Mean pose error of the training views against the truth (`import::perturb::pose_error`),
+/// as imported and as refined: rotation in degrees, centre in world units.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct PoseTruth {
+    pub before_rotation_deg: f64,
+    pub before_centre: f64,
+    pub after_rotation_deg: f64,
+    pub after_centre: f64,
+}
+
+impl PoseRefineSummary {
+    /// Of `state`, with `scale` world units per normalised unit.
+    pub fn of(state: &crate::train::pose_refine::PoseState, scale: f64) -> Self {
+        let n = state.corrections.len().max(1) as f64;
+        let rot: Vec<f64> = state
+            .corrections
+            .iter()
+            .map(|c| c.omega.norm().to_degrees())
+            .collect();
+        let tr: Vec<f64> = state
+            .corrections
+            .iter()
+            .map(|c| c.t.norm() * scale)
+            .collect();
+        Self {
+            views: state.corrections.len(),
+            mean_rotation_deg: rot.iter().sum::<f64>() / n,
+            max_rotation_deg: rot.iter().copied().fold(0.0, f64::max),
+            mean_translation: tr.iter().sum::<f64>() / n,
+            max_translation: tr.iter().copied().fold(0.0, f64::max),
+            truth: None,
+        }
+    }
 }
 
 /// What the visual-hull start did (`train::hull`), in world millimetres.

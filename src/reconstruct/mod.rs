@@ -41,6 +41,7 @@ mod overrides;
 mod prepare;
 mod preset;
 mod progress;
+mod refined;
 mod report;
 mod scene_ref;
 pub mod seen_floor;

@@ -44,6 +44,9 @@ pub(super) fn train(
         cfg.seed,
         cfg.augment.seed ^ cfg.seed,
     );
+    if cfg.train.pose_refine.enabled {
+        trainer = trainer.with_pose_refinement(&cameras);
+    }
     let mut depth_maps = None;
     if cfg.train.depth.enabled() {
         let (prior, summary) = stereo_prior(&cfg.train.depth, &cameras, data, quiet);
@@ -88,12 +91,19 @@ pub(super) fn train(
             say(quiet, format!("step {}: {why}", report.step));
         }
         let secs = t_loop.elapsed().as_secs_f64().max(1e-9);
-        let depth_note = report.depth.map_or(String::new(), |d| {
+        let mut depth_note = report.depth.map_or(String::new(), |d| {
             format!(
                 " depth on {}/{} rays, carved {}",
                 d.with_depth, d.rays, d.carved
             )
         });
+        if let Some(ps) = report.pose {
+            depth_note += &format!(
+                " pose {:.3}° {:.3}",
+                ps.mean_rotation.to_degrees(),
+                ps.mean_translation * p.scene.normalization.scale
+            );
+        }
         progress.update(
             state.step,
             format!(
@@ -150,6 +160,10 @@ pub(super) fn train(
         depth_auto,
         depth_auto_skipped: switch.skipped,
         error_map: state.error_map.as_ref().map(|m| m.summary()),
+        pose_refine: match &state.pose {
+            Some(ps) => Some(super::refined::write_refined(p, ps, &folder.out)?),
+            None => None,
+        },
     };
     let secs = t.elapsed().as_secs_f64();
     say(

@@ -29,7 +29,10 @@ mod workspace;
 pub use config::{
     BackgroundConfig, BackgroundKind, LossConfig, MaskBce, ModelConfig, RenderConfig,
 };
-pub use model::{BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch, RenderOutput};
+pub use model::{
+    ray_grad, BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch, RayGradCell,
+    RenderOutput,
+};
 pub use occupancy::{OccupancyConfig, OccupancyGrid};
 pub use ray_loss::{BatchCounts, RayLoss, SampleWeights};
 pub use schedule::{LossWeights, Schedule, Scheduled};

@@ -27,7 +27,10 @@
 use super::alpha::{inv_s_from_variance, neus_alpha};
 use super::background::{background_color, BackgroundSamples, BackgroundScratch};
 pub(super) use super::neus::RayResult;
-pub use super::neus::{BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch, RenderOutput};
+pub use super::neus::{
+    ray_grad, BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch, RayGradCell,
+    RenderOutput,
+};
 use super::occupancy::OccupancyGrid;
 use super::ray_loss::{BatchCounts, RayLoss};
 use super::rays::{march_rays, RaySamples};
@@ -124,11 +127,40 @@ impl NeusModel {
         occ: Option<&OccupancyGrid>,
         step_seed: u64,
     ) -> Result<BackwardOutput<L::Sums>, ModelError> {
+        self.forward_backward_rays(params, grads, batch, loss, sched, occ, step_seed, None)
+    }
+
+    /// [`Self::forward_backward`], also writing each ray's `(∂L/∂o, ∂L/∂d)` into `ray_grads`
+    /// (`[n]`, see [`RayGradCell`]) when given: the gradient through every point where the SDF
+    /// network is evaluated (the sample and its finite-difference taps) and through the view
+    /// direction's direct uses (the colour network's encoding and NeuS's `cos(d, n)`), with the
+    /// sample distances `t` held fixed (as BARF does, Lin et al. 2021, §3). The learned
+    /// background's samples are not differentiated. Pose refinement's input
+    /// (`crate::train::pose`). Without `ray_grads` the bits are those of `forward_backward`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn forward_backward_rays<T: Real, L: RayLoss>(
+        &self,
+        params: &[T],
+        grads: &mut [T],
+        batch: &RayBatch,
+        loss: &L,
+        sched: Schedule,
+        occ: Option<&OccupancyGrid>,
+        step_seed: u64,
+        ray_grads: Option<&[RayGradCell]>,
+    ) -> Result<BackwardOutput<L::Sums>, ModelError> {
         self.check_params(params)?;
         self.check_params(grads)?;
         self.check_batch(batch)?;
         let n = batch.origins.len();
         loss.check(n)?;
+        if let Some(g) = ray_grads.filter(|g| g.len() != n) {
+            return Err(ModelError::Shape {
+                what: "ray_grads",
+                expected: n,
+                got: g.len(),
+            });
+        }
         let t0 = Instant::now();
         let jitter = self.config.render.randomized.then_some(step_seed);
         let samples = self.sample(batch, occ, jitter);
@@ -154,6 +186,7 @@ impl NeusModel {
             sched,
             inv_s: inv_s.to_f64(),
             counts,
+            ray_grads,
         };
         let bounds = self.chunks(&samples);
         let n_chunks = bounds.len() - 1;
@@ -281,6 +314,7 @@ impl NeusModel {
             sched,
             inv_s: inv_s_from_variance(pg.var[0]).0 as f64,
             counts: BatchCounts::default(),
+            ray_grads: None,
         };
         let bounds = self.chunks(&samples);
         let parts: Vec<Vec<RayResult>> = (0..bounds.len() - 1)

@@ -34,6 +34,16 @@ pub struct RayBatch<'a> {
     pub p: &'a [f32],
 }
 
+/// `[n]` per-ray gradient cells of [`NeusModel::forward_backward_rays`]: `∂L/∂o` (3) then
+/// `∂L/∂d` (3), f64 bits, each written once by the chunk that holds the ray (normalised space).
+pub type RayGradCell = [std::sync::atomic::AtomicU64; 6];
+
+/// The gradient a [`RayGradCell`] holds: `(∂L/∂o, ∂L/∂d)`.
+pub fn ray_grad(cell: &RayGradCell) -> ([f64; 3], [f64; 3]) {
+    let v = |k: usize| f64::from_bits(cell[k].load(std::sync::atomic::Ordering::Relaxed));
+    ([v(0), v(1), v(2)], [v(3), v(4), v(5)])
+}
+
 /// CPU seconds per phase, summed over shards.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PhaseTimes {

@@ -8,7 +8,9 @@
 //! - `adam_m.<group>`, `adam_v.<group>`: f32, AdamW's moments, same shapes;
 //! - `occupancy.occ`: f32 `[r, r, r]`, `occupancy.binary`: u8 `[r, r, r]`;
 //! - with error-map sampling (`train.error_map`), `error_map.err` and `error_map.cdf`: f32
-//!   `[n_cells]` ([`super::error_map::ErrorMap`]).
+//!   `[n_cells]` ([`super::error_map::ErrorMap`]);
+//! - with pose refinement (`train.pose_refine`), `pose.state`: f64 `[views, 18]`, each view's
+//!   correction `ω, t` and their Adam moments (metadata `pose_t`: Adam's steps).
 //!
 //! Metadata (strings): `format` = `neus-aug-checkpoint-1`, `step` (completed steps), `adam_t`,
 //! `num_rays` (the dynamic ray count), `skipped_steps`, `config_hash` (of the resolved run
@@ -16,6 +18,11 @@
 
 use super::adam::AdamW;
 use super::error_map::{ErrorMap, ErrorMapConfig};
+use super::pose_refine::PoseState;
+
+/// The tensor of pose refinement's state: `[views][18]` f64 rows `ω, t, m, v`
+/// ([`PoseState::to_rows`]).
+const POSE_TENSOR: &str = "pose.state";
 use crate::field::ParamLayout;
 use crate::render::occupancy::OccupancyGrid;
 use safetensors::tensor::{Dtype, TensorView};
@@ -67,6 +74,8 @@ pub struct TrainState {
     pub skipped_steps: u64,
     /// The error map of error-map sampling (`None` when `train.error_map` is off).
     pub error_map: Option<ErrorMap>,
+    /// Pose refinement's corrections and moments (`None` when `train.pose_refine` is off).
+    pub pose: Option<PoseState>,
 }
 
 fn f32_bytes(v: &[f32]) -> Vec<u8> {
@@ -125,6 +134,16 @@ pub fn save(
             owned.push((name.into(), vec![v.len()], Dtype::F32, f32_bytes(v)));
         }
     }
+    if let Some(ps) = &state.pose {
+        let rows = ps.to_rows();
+        let bytes = rows.iter().flat_map(|x| x.to_le_bytes()).collect();
+        owned.push((
+            POSE_TENSOR.into(),
+            vec![rows.len() / 18, 18],
+            Dtype::F64,
+            bytes,
+        ));
+    }
     let views: Vec<(String, TensorView)> = owned
         .iter()
         .map(|(name, shape, dtype, bytes)| {
@@ -133,7 +152,7 @@ pub fn save(
                 .map_err(|e| invalid(format!("tensor {name}: {e}")))
         })
         .collect::<Result<_, _>>()?;
-    let meta: HashMap<String, String> = [
+    let mut meta: HashMap<String, String> = [
         ("format", FORMAT.to_string()),
         ("step", state.step.to_string()),
         ("adam_t", state.adam.t.to_string()),
@@ -146,6 +165,9 @@ pub fn save(
     .into_iter()
     .map(|(k, v)| (k.to_string(), v))
     .collect();
+    if let Some(ps) = &state.pose {
+        meta.insert("pose_t".into(), ps.t.to_string());
+    }
     let bytes = safetensors::serialize(views, Some(meta)).map_err(|e| invalid(e.to_string()))?;
     dtu_eval::atomic::write_atomic(path, &bytes).map_err(|source| CheckpointError::Io {
         path: path.into(),
@@ -203,13 +225,15 @@ fn check_values(name: &str, values: &[f32], non_negative: bool) -> Result<(), St
 /// Reads a checkpoint written by [`save`] for a model with `layout`, refusing one whose
 /// `config_hash` differs from `expected_hash`. `error_map`: the run's error-map settings and
 /// training-view sizes when error-map sampling is on (the map is then required and checked
-/// against them); `None` ignores any stored map.
+/// against them); `None` ignores any stored map. `pose_views`: the number of training views when
+/// pose refinement is on (its state is then required, one row per view); `None` ignores it.
 pub fn load(
     path: &Path,
     layout: &ParamLayout,
     adam_config: &super::adam::AdamWConfig,
     expected_hash: &str,
     error_map: Option<(&ErrorMapConfig, &[(u32, u32)])>,
+    pose_views: Option<usize>,
 ) -> Result<TrainState, CheckpointError> {
     let invalid = |why: String| CheckpointError::Invalid {
         path: path.into(),
@@ -311,6 +335,20 @@ pub fn load(
             )
         }
     };
+    let pose =
+        match pose_views {
+            None => None,
+            Some(views) => {
+                let raw = tensor(POSE_TENSOR, Dtype::F64, &[views, 18])?;
+                let rows: Vec<f64> = raw
+                    .chunks_exact(8)
+                    .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                    .collect();
+                Some(PoseState::from_rows(&rows, num("pose_t")?).ok_or_else(|| {
+                    invalid(format!("tensor {POSE_TENSOR}: a value is not finite"))
+                })?)
+            }
+        };
     Ok(TrainState {
         step: num("step")?,
         params,
@@ -324,5 +362,6 @@ pub fn load(
         num_rays: num("num_rays")? as usize,
         skipped_steps: num("skipped_steps")?,
         error_map,
+        pose,
     })
 }

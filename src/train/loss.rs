@@ -16,7 +16,7 @@ use crate::field::Real;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 use crate::render::{
-    BatchCounts, ModelError, NeusModel, OccupancyGrid, PhaseTimes, RayBatch, RayLoss,
+    BatchCounts, ModelError, NeusModel, OccupancyGrid, PhaseTimes, RayBatch, RayGradCell, RayLoss,
     SampleWeights, Schedule,
 };
 
@@ -301,6 +301,17 @@ impl RayLoss for PixelLoss<'_> {
     }
 }
 
+/// Per-ray outputs a training step writes besides its sums (each `[n]`, one cell per ray).
+#[derive(Clone, Copy, Default)]
+pub struct StepSinks<'a> {
+    /// Each ray's mean absolute colour error, `f32` bits ([`PixelLoss::ray_errors`]): the error
+    /// map's input.
+    pub ray_errors: Option<&'a [AtomicU32]>,
+    /// Each ray's `(∂L/∂o, ∂L/∂d)` ([`NeusModel::forward_backward_rays`]): pose refinement's
+    /// input.
+    pub ray_grads: Option<&'a [RayGradCell]>,
+}
+
 /// A training step of a model with its configured loss ([`PixelLoss`] of
 /// `model.config.loss`).
 pub trait TrainStep {
@@ -321,11 +332,11 @@ pub trait TrainStep {
         occ: Option<&OccupancyGrid>,
         step_seed: u64,
     ) -> Result<StepOutput, ModelError> {
-        self.train_step_recording(params, grads, batch, targets, sched, occ, step_seed, None)
+        let sinks = StepSinks::default();
+        self.train_step_recording(params, grads, batch, targets, sched, occ, step_seed, sinks)
     }
 
-    /// [`TrainStep::train_step`], also writing each ray's mean absolute colour error into
-    /// `ray_errors` (`[n]`, `f32` bits; see [`PixelLoss::ray_errors`]) when given.
+    /// [`TrainStep::train_step`], also writing the per-ray outputs `sinks` asks for.
     #[allow(clippy::too_many_arguments)]
     fn train_step_recording<T: Real>(
         &self,
@@ -336,7 +347,7 @@ pub trait TrainStep {
         sched: Schedule,
         occ: Option<&OccupancyGrid>,
         step_seed: u64,
-        ray_errors: Option<&[AtomicU32]>,
+        sinks: StepSinks,
     ) -> Result<StepOutput, ModelError>;
 }
 
@@ -350,13 +361,22 @@ impl TrainStep for NeusModel {
         sched: Schedule,
         occ: Option<&OccupancyGrid>,
         step_seed: u64,
-        ray_errors: Option<&[AtomicU32]>,
+        sinks: StepSinks,
     ) -> Result<StepOutput, ModelError> {
         let mut loss = PixelLoss::new(&self.config.loss, sched.loss, *targets);
-        if let Some(sink) = ray_errors {
+        if let Some(sink) = sinks.ray_errors {
             loss = loss.with_ray_errors(sink);
         }
-        let b = self.forward_backward(params, grads, batch, &loss, sched, occ, step_seed)?;
+        let b = self.forward_backward_rays(
+            params,
+            grads,
+            batch,
+            &loss,
+            sched,
+            occ,
+            step_seed,
+            sinks.ray_grads,
+        )?;
         Ok(StepOutput {
             inv_s: b.inv_s,
             times: b.times,

@@ -15,11 +15,12 @@ pub mod hull;
 pub mod loss;
 pub mod metrics;
 pub mod pose;
+pub mod pose_refine;
 pub mod schedule;
 pub mod trainer;
 
 pub use adam::{AdamW, AdamWConfig, OptimError};
 pub use checkpoint::TrainState;
 pub use data::{Batch, TrainData};
-pub use loss::{LossConfig, MaskBce, PixelLoss, StepOutput, Targets, TrainStep};
+pub use loss::{LossConfig, MaskBce, PixelLoss, StepOutput, StepSinks, Targets, TrainStep};
 pub use trainer::{StepReport, TrainConfig, TrainError, Trainer};

@@ -8,9 +8,11 @@ use super::data::{Batch, TrainData};
 use super::depth::{DepthConfig, DepthPrior, DepthStep};
 use super::error_map::{ErrorMap, ErrorMapConfig};
 use super::hull::InitConfig;
-use super::loss::{StepOutput, Targets, TrainStep};
+use super::loss::{StepOutput, StepSinks, Targets, TrainStep};
+use super::pose_refine::{PoseRefineConfig, PoseRefiner, PoseState, PoseStep};
 use super::schedule::LrSchedule;
 use crate::render::model::{ModelError, NeusModel, RayBatch};
+use crate::scene::Camera;
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
@@ -38,6 +40,10 @@ pub struct TrainConfig {
     /// Depth prior from multi-view stereo (`[train.depth]`; off unless asked for or switched
     /// on, see [`super::depth`]).
     pub depth: DepthConfig,
+    /// Per-view pose refinement (`[train.pose_refine]`; off by default and then absent from
+    /// the configuration's text, see [`super::pose_refine`]).
+    #[serde(skip_serializing_if = "PoseRefineConfig::is_default")]
+    pub pose_refine: PoseRefineConfig,
 }
 
 impl Default for TrainConfig {
@@ -51,6 +57,7 @@ impl Default for TrainConfig {
             init: InitConfig::default(),
             error_map: ErrorMapConfig::default(),
             depth: DepthConfig::default(),
+            pose_refine: PoseRefineConfig::default(),
         }
     }
 }
@@ -90,6 +97,8 @@ pub struct StepReport {
     pub occupancy_updated: bool,
     /// What the depth prior did (`None` when off or outside its steps).
     pub depth: Option<DepthStep>,
+    /// What pose refinement did (`None` when off or the step was skipped).
+    pub pose: Option<PoseStep>,
 }
 
 /// Independent random streams of a step.
@@ -126,6 +135,8 @@ pub struct Trainer<'a> {
     depth: Option<DepthPrior>,
     /// `[rays]` per-ray colour errors of the step (error-map sampling only).
     ray_errors: Vec<AtomicU32>,
+    /// Pose refinement's buffers (`None` when off).
+    pose: Option<PoseRefiner>,
 }
 
 impl<'a> Trainer<'a> {
@@ -148,7 +159,16 @@ impl<'a> Trainer<'a> {
             consecutive_skips: 0,
             depth: None,
             ray_errors: Vec::new(),
+            pose: None,
         }
+    }
+
+    /// Refines the poses of the training cameras `cameras` (normalised frame, the order given
+    /// to [`TrainData::new`]) with the field, as `config.pose_refine` says
+    /// ([`super::pose_refine`]); the state then carries the corrections.
+    pub fn with_pose_refinement(mut self, cameras: &[Camera]) -> Self {
+        self.pose = Some(PoseRefiner::new(&self.config.pose_refine, cameras));
+        self
     }
 
     /// Adds the depth prior (`config.depth`, [`super::depth`]) to every step from its start step
@@ -178,6 +198,7 @@ impl<'a> Trainer<'a> {
                 .error_map
                 .enabled()
                 .then(|| ErrorMap::new(&self.config.error_map, &self.data.sizes())),
+            pose: self.pose.as_ref().map(|r| PoseState::new(r.n_views())),
         }
     }
 
@@ -207,6 +228,15 @@ impl<'a> Trainer<'a> {
             state.error_map.as_ref(),
             &mut self.batch,
         );
+        let refine = match (self.pose.as_mut(), state.pose.as_ref()) {
+            (Some(r), Some(ps)) => {
+                let b = &mut self.batch;
+                r.correct(ps, &b.views, &mut b.origins, &mut b.dirs);
+                true
+            }
+            (None, None) => false,
+            _ => panic!("pose refinement and the training state disagree"),
+        };
         let sink = state.error_map.is_some().then(|| {
             let n = self.batch.len();
             if self.ray_errors.len() < n {
@@ -233,7 +263,10 @@ impl<'a> Trainer<'a> {
             sched,
             rcfg.occupancy.enabled.then_some(&state.occ),
             step_seed(self.seed, step, Stream::Jitter),
-            sink,
+            StepSinks {
+                ray_errors: sink,
+                ray_grads: self.pose.as_ref().map(|r| r.cells()),
+            },
         )?;
         if let (Some(m), Some(errors)) = (state.error_map.as_mut(), sink) {
             m.record(&b.views, &b.pixels, errors);
@@ -278,6 +311,16 @@ impl<'a> Trainer<'a> {
                 return Err(TrainError::Optim(e));
             }
         };
+        let pose = match (
+            refine && skipped.is_none(),
+            self.pose.as_mut(),
+            state.pose.as_mut(),
+        ) {
+            (true, Some(r), Some(ps)) => {
+                Some(r.update(ps, &self.batch.views, step, self.config.iterations))
+            }
+            _ => None,
+        };
         let budget = rcfg.train_num_rays * rcfg.num_samples_per_ray;
         let rays = state.num_rays;
         state.num_rays = next_num_rays(rays, out.n_samples, budget, rcfg.max_train_num_rays);
@@ -290,6 +333,7 @@ impl<'a> Trainer<'a> {
             skipped,
             occupancy_updated,
             depth,
+            pose,
         })
     }
 }

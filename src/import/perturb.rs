@@ -1,0 +1,193 @@
+//! Known pose errors, for measuring pose refinement (`train.pose_refine`): `synth
+//! --perturb-poses DEG,DIST` moves every camera of a rendered scene by exactly `DEG` degrees
+//! about a random axis through its centre and `DIST` world units in a random direction, keeps
+//! the true cameras as `cameras_sphere_true.npz`, and writes the perturbed ones as the scene's
+//! `cameras_sphere.npz` (the images stay those of the true cameras). [`pose_error`] measures a
+//! camera against the truth the way BARF reports it (Lin et al. 2021, §4: rotation angle and
+//! translation distance, here without a global alignment, as the ground truth fixes the frame).
+
+use super::export::read_scene_cameras;
+use super::ImportError;
+use crate::scene::dtu::{write_cameras, Normalization, CAMERA_FILE};
+use crate::scene::{npz, Camera};
+use crate::train::pose::exp_so3;
+use nalgebra::{Matrix4, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use std::path::Path;
+
+/// The true cameras beside the perturbed ones.
+pub const TRUE_CAMERA_FILE: &str = "cameras_sphere_true.npz";
+
+/// How far a camera is from the truth.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PoseError {
+    /// Angle of `R_est·R_trueᵀ`, degrees.
+    pub rotation_deg: f64,
+    /// `|C_est − C_true|`, in the cameras' units.
+    pub centre: f64,
+}
+
+/// The error of `est` against `truth`.
+pub fn pose_error(truth: &Camera, est: &Camera) -> PoseError {
+    let d = est.r * truth.r.transpose();
+    let c = ((d.trace() - 1.0) / 2.0).clamp(-1.0, 1.0);
+    PoseError {
+        rotation_deg: c.acos().to_degrees(),
+        centre: (est.center - truth.center).norm(),
+    }
+}
+
+/// The mean error over pairs of cameras.
+pub fn mean_pose_error(truth: &[&Camera], est: &[&Camera]) -> PoseError {
+    let n = truth.len().max(1) as f64;
+    let mut m = PoseError::default();
+    for (t, e) in truth.iter().zip(est) {
+        let p = pose_error(t, e);
+        m.rotation_deg += p.rotation_deg / n;
+        m.centre += p.centre / n;
+    }
+    m
+}
+
+/// A uniformly random unit vector.
+fn unit(rng: &mut Pcg64Mcg) -> Vector3<f64> {
+    loop {
+        let v = Vector3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+        );
+        let n = v.norm();
+        if n > 1e-3 && n <= 1.0 {
+            return v / n;
+        }
+    }
+}
+
+/// Every camera turned by exactly `degrees` about a random axis through its centre and its
+/// centre moved by exactly `dist` in a random direction (seeded).
+pub fn perturb(cameras: &[Camera], degrees: f64, dist: f64, seed: u64) -> Vec<Camera> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x706f_7365);
+    cameras
+        .iter()
+        .map(|c| {
+            let w = unit(&mut rng) * degrees.to_radians();
+            let t = unit(&mut rng) * dist;
+            Camera {
+                r: exp_so3(&w) * c.r,
+                center: c.center + t,
+                ..c.clone()
+            }
+        })
+        .collect()
+}
+
+/// Perturbs the cameras of the scene folder `scene` (see the module doc). Refused when the
+/// scene already holds [`TRUE_CAMERA_FILE`] (it was perturbed once) or when the angle or
+/// distance is negative or not finite. Returns the mean error written.
+pub fn perturb_scene(
+    scene: &Path,
+    degrees: f64,
+    dist: f64,
+    seed: u64,
+) -> Result<PoseError, ImportError> {
+    if !(degrees.is_finite() && degrees >= 0.0 && dist.is_finite() && dist >= 0.0) {
+        return Err(ImportError::Export(format!(
+            "a pose perturbation of {degrees}° and {dist} must be finite and ≥ 0"
+        )));
+    }
+    let truth_path = scene.join(TRUE_CAMERA_FILE);
+    if truth_path.exists() {
+        return Err(ImportError::Export(format!(
+            "{} exists: the scene's poses were perturbed already",
+            truth_path.display()
+        )));
+    }
+    let sc = read_scene_cameras(scene)?;
+    let cam_path = scene.join(CAMERA_FILE);
+    let arrays = npz::read(&cam_path).map_err(crate::scene::SceneError::from)?;
+    let scale = arrays
+        .get("scale_mat_0")
+        .filter(|a| a.shape == [4, 4])
+        .ok_or_else(|| ImportError::Parse {
+            file: cam_path.clone(),
+            message: "'scale_mat_0' is missing or not 4×4".into(),
+        })?;
+    let m = Matrix4::from_fn(|r, c| scale.data[r * 4 + c]);
+    let norm = Normalization::from_scale_mat(&m).map_err(|message| ImportError::Parse {
+        file: cam_path.clone(),
+        message: format!("'scale_mat_0' {message}"),
+    })?;
+    let moved = perturb(&sc.cameras, degrees, dist, seed);
+    std::fs::copy(&cam_path, &truth_path).map_err(super::io_err(&truth_path))?;
+    let refs: Vec<&Camera> = moved.iter().collect();
+    write_cameras(scene, &refs, &norm).map_err(|e| ImportError::Export(e.to_string()))?;
+    let truth: Vec<&Camera> = sc.cameras.iter().collect();
+    Ok(mean_pose_error(&truth, &refs))
+}
+
+/// The true cameras of a perturbed scene (`None` when it has no [`TRUE_CAMERA_FILE`]), world
+/// frame, in `world_mat_i` order.
+pub fn read_true_cameras(
+    scene: &Path,
+    sizes: &[(u32, u32)],
+) -> Result<Option<Vec<Camera>>, ImportError> {
+    let path = scene.join(TRUE_CAMERA_FILE);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let arrays = npz::read(&path).map_err(crate::scene::SceneError::from)?;
+    let mut out = Vec::with_capacity(sizes.len());
+    for (i, &(w, h)) in sizes.iter().enumerate() {
+        let key = format!("world_mat_{i}");
+        let a = arrays
+            .get(&key)
+            .filter(|a| a.shape == [4, 4] || a.shape == [3, 4])
+            .ok_or_else(|| ImportError::Parse {
+                file: path.clone(),
+                message: format!("'{key}' is missing or not 4×4"),
+            })?;
+        let p = nalgebra::Matrix3x4::from_fn(|r, c| a.data[r * 4 + c]);
+        out.push(
+            Camera::from_projection(&p, w, h).map_err(|e| ImportError::Parse {
+                file: path.clone(),
+                message: format!("'{key}': {e}"),
+            })?,
+        );
+    }
+    Ok(Some(out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::camera::{centred_intrinsics, look_at};
+
+    #[test]
+    fn a_perturbation_has_exactly_the_asked_size() {
+        let cams: Vec<Camera> = (0..8)
+            .map(|i| {
+                let a = i as f64;
+                look_at(
+                    Vector3::new(a.cos() * 3.0, a.sin() * 3.0, 1.0),
+                    Vector3::zeros(),
+                    Vector3::z(),
+                    centred_intrinsics(200.0, 64, 48),
+                    64,
+                    48,
+                )
+            })
+            .collect();
+        let moved = perturb(&cams, 0.5, 3.0, 7);
+        for (t, e) in cams.iter().zip(&moved) {
+            let p = pose_error(t, e);
+            assert!((p.rotation_deg - 0.5).abs() < 1e-9, "{p:?}");
+            assert!((p.centre - 3.0).abs() < 1e-9, "{p:?}");
+            assert_eq!(t.k, e.k);
+        }
+        assert_eq!(perturb(&cams, 0.5, 3.0, 7), moved, "seeded");
+        assert_ne!(perturb(&cams, 0.5, 3.0, 8), moved);
+        assert_eq!(pose_error(&cams[0], &cams[0]), PoseError::default());
+    }
+}

@@ -1,0 +1,135 @@
+//! Pose refinement (`train.pose_refine`) end to end on the tiny scene with perturbed poses
+//! (`import::perturb`): the refined cameras are written for reuse, the error against the true
+//! cameras is reported, and a run stopped part-way resumes to the same mesh (the corrections and
+//! their moments are in the checkpoint).
+
+mod common;
+
+use common::tiny::{neus_aug, scene as tiny_scene, write_config};
+use std::path::Path;
+use std::process::Output;
+
+fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let dst = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &dst);
+        } else {
+            std::fs::copy(e.path(), dst).unwrap();
+        }
+    }
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "reconstruct failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn reconstruct(scene: &Path, cfg: &Path, out: &Path, extra: &[&str]) -> Output {
+    neus_aug()
+        .arg("reconstruct")
+        .arg(scene)
+        .arg("--config")
+        .arg(cfg)
+        .arg("--out")
+        .arg(out)
+        .arg("--quiet")
+        .args(extra)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn refined_poses_are_written_measured_and_resumed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("perturbed");
+    copy_dir(tiny_scene(), &scene);
+    let e = neus_aug_lib_perturb(&scene);
+    assert!((e.rotation_deg - 0.5).abs() < 1e-6 && (e.centre - 3.0).abs() < 1e-6);
+    // A second perturbation would lose the truth: refused.
+    let again = neus_aug::import::perturb::perturb_scene(&scene, 0.5, 3.0, 1).unwrap_err();
+    assert!(again.to_string().contains("perturbed already"), "{again}");
+
+    let cfg = write_config(tmp.path(), 24, "[train.pose_refine]\nenabled = true\n");
+    let full = tmp.path().join("full");
+    ok(&reconstruct(&scene, &cfg, &full, &[]));
+    let text = std::fs::read_to_string(full.join("config.toml")).unwrap();
+    assert!(text.contains("[train.pose_refine]"), "{text}");
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(full.join("metrics.json")).unwrap()).unwrap();
+    let pr = &m["train"]["pose_refine"];
+    assert_eq!(pr["views"], 7, "{pr}");
+    assert!(pr["mean_rotation_deg"].as_f64().unwrap() > 0.0, "{pr}");
+    let truth = &pr["truth"];
+    assert!(
+        (truth["before_rotation_deg"].as_f64().unwrap() - 0.5).abs() < 1e-6,
+        "{truth}"
+    );
+    assert!(
+        truth["after_centre"].as_f64().unwrap().is_finite(),
+        "{truth}"
+    );
+    for f in [
+        "refined/cameras_sphere.npz",
+        "refined/sparse/0/cameras.txt",
+        "refined/sparse/0/images.txt",
+        "refined/sparse/0/points3D.txt",
+    ] {
+        assert!(full.join(f).is_file(), "{f} missing");
+    }
+    // The refined cameras are a scene's cameras: every view, readable as the scene reads them.
+    let npz = neus_aug::scene::npz::read(&full.join("refined/cameras_sphere.npz")).unwrap();
+    assert!(npz.contains_key("world_mat_7") && npz.contains_key("scale_mat_0"));
+    let images = std::fs::read_to_string(full.join("refined/sparse/0/images.txt")).unwrap();
+    assert!(images.contains("000007.png"), "{images}");
+
+    // Stopped at step 12 and resumed: the same mesh, bit for bit.
+    let part = tmp.path().join("part");
+    let o = reconstruct(&scene, &cfg, &part, &["--stop-after", "12"]);
+    assert!(!o.status.success());
+    ok(&reconstruct(&scene, &cfg, &part, &["--resume"]));
+    assert_eq!(
+        std::fs::read(full.join("mesh.ply")).unwrap(),
+        std::fs::read(part.join("mesh.ply")).unwrap()
+    );
+    let again: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(part.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(again["train"]["pose_refine"], *pr);
+
+    // Off, the configuration does not mention it (so earlier runs keep their hashes).
+    let plain_cfg = tmp.path().join("plain.toml");
+    std::fs::write(&plain_cfg, common::tiny::config(4, "")).unwrap();
+    let plain = tmp.path().join("plain");
+    ok(&reconstruct(&scene, &plain_cfg, &plain, &[]));
+    let text = std::fs::read_to_string(plain.join("config.toml")).unwrap();
+    assert!(!text.contains("pose_refine"), "{text}");
+    assert!(!plain.join("refined").exists());
+}
+
+fn neus_aug_lib_perturb(scene: &Path) -> neus_aug::import::perturb::PoseError {
+    neus_aug::import::perturb::perturb_scene(scene, 0.5, 3.0, 1).unwrap()
+}
+
+/// Bad settings are refused by key before anything is written.
+#[test]
+fn bad_pose_refinement_settings_are_refused_by_key() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (set, key) in [
+        ("train.pose_refine.lr=0", "train.pose_refine.lr"),
+        ("train.pose_refine.until=1.5", "train.pose_refine.until"),
+        ("train.pose_refine.weight=-1", "train.pose_refine.weight"),
+    ] {
+        let cfg = write_config(tmp.path(), 4, "");
+        let out = tmp.path().join("bad");
+        let o = reconstruct(tiny_scene(), &cfg, &out, &["--set", set]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(key), "{set}: {err}");
+        assert!(!out.join("metrics.json").exists());
+    }
+}
