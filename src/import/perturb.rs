@@ -38,6 +38,25 @@ pub fn pose_error(truth: &Camera, est: &Camera) -> PoseError {
     }
 }
 
+/// How far apart two cameras put the same points in the image: the mean distance in pixels
+/// between the projections of `points` (world) by `truth` and by `est`, over the points in
+/// front of both cameras. Rotation and a sideways move of the centre nearly trade off for a
+/// distant camera; this is the error the images see.
+pub fn reprojection_px(truth: &Camera, est: &Camera, points: &[Vector3<f64>]) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for x in points {
+        if let (Some((u0, v0, _)), Some((u1, v1, _))) = (truth.project(x), est.project(x)) {
+            sum += ((u1 - u0).powi(2) + (v1 - v0).powi(2)).sqrt();
+            n += 1;
+        }
+    }
+    if n == 0 {
+        f64::NAN
+    } else {
+        sum / n as f64
+    }
+}
+
 /// The mean error over pairs of cameras.
 pub fn mean_pose_error(truth: &[&Camera], est: &[&Camera]) -> PoseError {
     let n = truth.len().max(1) as f64;
@@ -189,5 +208,17 @@ mod tests {
         assert_eq!(perturb(&cams, 0.5, 3.0, 7), moved, "seeded");
         assert_ne!(perturb(&cams, 0.5, 3.0, 8), moved);
         assert_eq!(pose_error(&cams[0], &cams[0]), PoseError::default());
+        let pts = [Vector3::zeros(), Vector3::new(0.3, -0.2, 0.1)];
+        assert_eq!(reprojection_px(&cams[0], &cams[0], &pts), 0.0);
+        // A quarter of a degree of yaw at f = 200 px moves a point on the axis by 200·tan(0.25°).
+        let yawed = Camera {
+            r: exp_so3(&Vector3::new(0.0, 0.25f64.to_radians(), 0.0)) * cams[0].r,
+            ..cams[0].clone()
+        };
+        let px = reprojection_px(&cams[0], &yawed, &pts[..1]);
+        assert!(
+            (px - 200.0 * 0.25f64.to_radians().tan()).abs() < 1e-9,
+            "{px}"
+        );
     }
 }

@@ -141,6 +141,13 @@ pub struct PoseTruth {
     pub before_centre: f64,
     pub after_rotation_deg: f64,
     pub after_centre: f64,
+    /// Mean distance in pixels between where the true and the imported (refined) cameras put
+    /// points of the object's region (`import::perturb::reprojection_px`, a 5³ grid in the
+    /// normalised frame's cube of half-side 0.5).
+    #[serde(default)]
+    pub before_px: f64,
+    #[serde(default)]
+    pub after_px: f64,
 }
 
 impl PoseRefineSummary {

@@ -9,15 +9,17 @@ use super::metrics::{PoseRefineSummary, PoseTruth};
 use super::prepare::Prepared;
 use super::ReconstructError;
 use crate::import::export::colmap_model;
-use crate::import::perturb::mean_pose_error;
+use crate::import::perturb::{mean_pose_error, reprojection_px};
 use crate::scene::dtu::write_cameras;
 use crate::scene::Camera;
 use crate::train::pose_refine::PoseState;
 use std::path::Path;
 
 /// Writes `out/refined/` (see the module doc) and returns what the corrections amount to.
+/// `downscale`: the factor the run loaded the images at (`data.downscale`).
 pub(super) fn write_refined(
     p: &Prepared,
+    downscale: u32,
     state: &PoseState,
     out: &Path,
 ) -> Result<PoseRefineSummary, ReconstructError> {
@@ -33,6 +35,23 @@ pub(super) fn write_refined(
         .collect();
     for (&i, c) in p.train_idx.iter().zip(&fixed) {
         world[i] = c.denormalized(n.scale, &offset);
+    }
+    // Back to the images' own pixels when the run downscaled them (`data.downscale`):
+    // `K = diag(f, f, 1)·K'`, the inverse of `Camera::downscaled`.
+    let f = downscale as f64;
+    if f != 1.0 {
+        for (c, v) in world.iter_mut().zip(&p.scene.views) {
+            for col in 0..3 {
+                c.k[(0, col)] *= f;
+                c.k[(1, col)] *= f;
+            }
+            let (w, h) =
+                image::image_dimensions(&v.image_path).map_err(|e| ReconstructError::Output {
+                    path: v.image_path.clone(),
+                    problem: e.to_string(),
+                })?;
+            (c.width, c.height) = (w, h);
+        }
     }
     let dir = out.join("refined");
     std::fs::create_dir_all(&dir).map_err(super::io_err(&dir))?;
@@ -76,11 +95,37 @@ pub(super) fn write_refined(
         let t = pick(&truth);
         let before = mean_pose_error(&ref_list(&t), &ref_list(&pick(&imported)));
         let after = mean_pose_error(&ref_list(&t), &ref_list(&pick(&world)));
+        // Points of the object's region: a 5³ grid over [-0.5, 0.5]³ of the normalised frame.
+        let pts: Vec<nalgebra::Vector3<f64>> = (0..125)
+            .map(|i| {
+                let g = |k: usize| (k % 5) as f64 * 0.25 - 0.5;
+                let x = nalgebra::Vector3::new(g(i), g(i / 5), g(i / 25));
+                x * n.scale + offset
+            })
+            .collect();
+        let px = |est: &[Camera]| {
+            let pairs: Vec<f64> = t
+                .iter()
+                .zip(est)
+                .map(|(a, b)| {
+                    // In the true camera's pixels (the run may have downscaled its images).
+                    let b = Camera {
+                        r: b.r,
+                        center: b.center,
+                        ..a.clone()
+                    };
+                    reprojection_px(a, &b, &pts)
+                })
+                .collect();
+            pairs.iter().sum::<f64>() / pairs.len().max(1) as f64
+        };
         summary.truth = Some(PoseTruth {
             before_rotation_deg: before.rotation_deg,
             before_centre: before.centre,
             after_rotation_deg: after.rotation_deg,
             after_centre: after.centre,
+            before_px: px(&pick(&imported)),
+            after_px: px(&pick(&world)),
         });
     }
     Ok(summary)

@@ -161,7 +161,12 @@ pub(super) fn train(
         depth_auto_skipped: switch.skipped,
         error_map: state.error_map.as_ref().map(|m| m.summary()),
         pose_refine: match &state.pose {
-            Some(ps) => Some(super::refined::write_refined(p, ps, &folder.out)?),
+            Some(ps) => Some(super::refined::write_refined(
+                p,
+                cfg.data.downscale,
+                ps,
+                &folder.out,
+            )?),
             None => None,
         },
     };
