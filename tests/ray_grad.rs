@@ -12,29 +12,20 @@
 
 mod field_common;
 
-use field_common::{perturbed_params, seed, tiny_config};
-use neus_aug::render::{ray_grad, ModelConfig, NeusModel, RayBatch, RayGradCell};
-use neus_aug::train::{StepSinks, Targets, TrainStep};
+use field_common::{perturbed_params, seed, tiny_config, Batch};
+use neus_aug::render::{ray_grad, ModelConfig, NeusModel, RayGradCell};
+use neus_aug::train::{StepSinks, TrainStep};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
-
-/// `n` rays from inside the box (`[-0.7, 0.7]³`), random directions, targets, masks, codes, p.
-struct InsideRays {
-    origins: Vec<[f32; 3]>,
-    dirs: Vec<[f32; 3]>,
-    rgb: Vec<[f32; 3]>,
-    mask: Vec<f32>,
-    codes: Vec<u32>,
-    p: Vec<f32>,
-}
 
 fn quantise(v: f64) -> f32 {
     ((v * 4096.0).round() / 4096.0) as f32
 }
 
-fn inside_rays(n: usize, seed: u64) -> InsideRays {
+/// `n` rays from inside the box (`[-0.7, 0.7]³`), random directions, targets, masks, codes, p.
+fn inside_rays(n: usize, seed: u64) -> Batch {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-    let mut b = InsideRays {
+    let mut b = Batch {
         origins: vec![],
         dirs: vec![],
         rgb: vec![],
@@ -56,26 +47,8 @@ fn inside_rays(n: usize, seed: u64) -> InsideRays {
     b
 }
 
-impl InsideRays {
-    fn rays(&self) -> RayBatch<'_> {
-        RayBatch {
-            origins: &self.origins,
-            dirs: &self.dirs,
-            codes: &self.codes,
-            p: &self.p,
-        }
-    }
-
-    fn targets(&self) -> Targets<'_> {
-        Targets {
-            rgb: &self.rgb,
-            mask: Some(&self.mask),
-        }
-    }
-}
-
 /// Component `k` of ray `r`'s origin (`what = "o"`) or direction.
-fn component<'a>(b: &'a mut InsideRays, what: &str, r: usize, k: usize) -> &'a mut f32 {
+fn component<'a>(b: &'a mut Batch, what: &str, r: usize, k: usize) -> &'a mut f32 {
     if what == "o" {
         &mut b.origins[r][k]
     } else {
@@ -132,7 +105,7 @@ fn check_ray_gradients(cfg: ModelConfig) -> f64 {
         .all(|(a, b)| a.to_bits() == b.to_bits()));
 
     let h = 1.0 / 65536.0;
-    let loss = |b: &InsideRays| {
+    let loss = |b: &Batch| {
         let mut g = vec![0.0; p.len()];
         let o = model
             .train_step(&p, &mut g, &b.rays(), &b.targets(), sched, None, step_seed)

@@ -42,31 +42,18 @@ pub fn read_scene_cameras(scene: &Path) -> Result<SceneCameras, ImportError> {
     if images.is_empty() {
         return Err(ImportError::NoViews(image_dir));
     }
-    let cam_path = scene.join(CAMERA_FILE);
-    let arrays = npz::read(&cam_path).map_err(crate::scene::SceneError::from)?;
-    let mut cameras = Vec::with_capacity(images.len());
-    for (i, img) in images.iter().enumerate() {
-        let key = format!("world_mat_{i}");
-        let a = arrays
-            .get(&key)
-            .filter(|a| a.shape == [4, 4] || a.shape == [3, 4])
-            .ok_or_else(|| ImportError::Parse {
-                file: cam_path.clone(),
-                message: format!("'{key}' is missing or not 4×4"),
-            })?;
-        let p = Matrix3x4::from_fn(|r, c| a.data[r * 4 + c]);
-        let (w, h) = image::image_dimensions(img).map_err(|source| {
-            ImportError::Image(crate::scene::ImageError::Decode {
-                path: img.clone(),
-                source,
+    let sizes = images
+        .iter()
+        .map(|img| {
+            image::image_dimensions(img).map_err(|source| {
+                ImportError::Image(crate::scene::ImageError::Decode {
+                    path: img.clone(),
+                    source,
+                })
             })
-        })?;
-        let cam = Camera::from_projection(&p, w, h).map_err(|e| ImportError::Parse {
-            file: cam_path.clone(),
-            message: format!("'{key}': {e}"),
-        })?;
-        cameras.push(cam);
-    }
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut cameras = read_world_cameras(&scene.join(CAMERA_FILE), &sizes)?;
     clean_roundoff(&mut cameras);
     let masks: Vec<PathBuf> = (0..images.len())
         .map(|i| scene.join("mask").join(format!("{i:03}.png")))
@@ -77,6 +64,30 @@ pub fn read_scene_cameras(scene: &Path) -> Result<SceneCameras, ImportError> {
         masks,
         cameras,
     })
+}
+
+/// The cameras `world_mat_0 … world_mat_{n−1}` of a `cameras_sphere.npz`-style file, view `i`
+/// of size `sizes[i]` (`K·[R | −R·C]` decomposed with [`Camera::from_projection`]).
+pub fn read_world_cameras(path: &Path, sizes: &[(u32, u32)]) -> Result<Vec<Camera>, ImportError> {
+    let arrays = npz::read(path).map_err(crate::scene::SceneError::from)?;
+    let mut cameras = Vec::with_capacity(sizes.len());
+    for (i, &(w, h)) in sizes.iter().enumerate() {
+        let key = format!("world_mat_{i}");
+        let a = arrays
+            .get(&key)
+            .filter(|a| a.shape == [4, 4] || a.shape == [3, 4])
+            .ok_or_else(|| ImportError::Parse {
+                file: path.into(),
+                message: format!("'{key}' is missing or not 4×4"),
+            })?;
+        let p = Matrix3x4::from_fn(|r, c| a.data[r * 4 + c]);
+        let cam = Camera::from_projection(&p, w, h).map_err(|e| ImportError::Parse {
+            file: path.into(),
+            message: format!("'{key}': {e}"),
+        })?;
+        cameras.push(cam);
+    }
+    Ok(cameras)
 }
 
 /// Removes the decomposition's round-off from intrinsics: a skew below `1e-9·fx` becomes 0, and

@@ -6,7 +6,7 @@
 //! camera against the truth the way BARF reports it (Lin et al. 2021, §4: rotation angle and
 //! translation distance, here without a global alignment, as the ground truth fixes the frame).
 
-use super::export::read_scene_cameras;
+use super::export::{read_scene_cameras, read_world_cameras};
 use super::ImportError;
 use crate::scene::dtu::{write_cameras, Normalization, CAMERA_FILE};
 use crate::scene::{npz, Camera};
@@ -156,26 +156,7 @@ pub fn read_true_cameras(
     if !path.is_file() {
         return Ok(None);
     }
-    let arrays = npz::read(&path).map_err(crate::scene::SceneError::from)?;
-    let mut out = Vec::with_capacity(sizes.len());
-    for (i, &(w, h)) in sizes.iter().enumerate() {
-        let key = format!("world_mat_{i}");
-        let a = arrays
-            .get(&key)
-            .filter(|a| a.shape == [4, 4] || a.shape == [3, 4])
-            .ok_or_else(|| ImportError::Parse {
-                file: path.clone(),
-                message: format!("'{key}' is missing or not 4×4"),
-            })?;
-        let p = nalgebra::Matrix3x4::from_fn(|r, c| a.data[r * 4 + c]);
-        out.push(
-            Camera::from_projection(&p, w, h).map_err(|e| ImportError::Parse {
-                file: path.clone(),
-                message: format!("'{key}': {e}"),
-            })?,
-        );
-    }
-    Ok(Some(out))
+    read_world_cameras(&path, sizes).map(Some)
 }
 
 #[cfg(test)]
