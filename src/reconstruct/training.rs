@@ -46,6 +46,15 @@ pub(super) fn train(
     );
     if cfg.train.pose_refine.enabled {
         trainer = trainer.with_pose_refinement(&cameras);
+        let d = &cfg.train.depth;
+        if d.enabled() || d.auto.enabled {
+            say(
+                quiet,
+                "note: the stereo depth prior (train.depth) uses the imported cameras, not the \
+                 refined ones; with poses off by 0.5° it doubled the error \
+                 (docs/pose-refinement.md): consider --set train.depth.auto.enabled=false",
+            );
+        }
     }
     let mut depth_maps = None;
     if cfg.train.depth.enabled() {
