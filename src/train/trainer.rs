@@ -78,6 +78,9 @@ pub enum TrainError {
     /// Any other optimiser failure.
     #[error(transparent)]
     Optim(OptimError),
+    /// The training state does not fit the trainer's settings.
+    #[error("training state: {0}")]
+    State(String),
 }
 
 /// What one step did.
@@ -235,7 +238,14 @@ impl<'a> Trainer<'a> {
                 true
             }
             (None, None) => false,
-            _ => panic!("pose refinement and the training state disagree"),
+            (r, ps) => {
+                return Err(TrainError::State(format!(
+                    "pose refinement is {} but the training state {} its corrections (a \
+                     checkpoint from another configuration?)",
+                    if r.is_some() { "on" } else { "off" },
+                    if ps.is_some() { "holds" } else { "lacks" }
+                )))
+            }
         };
         let sink = state.error_map.is_some().then(|| {
             let n = self.batch.len();
