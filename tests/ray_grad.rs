@@ -25,14 +25,7 @@ fn quantise(v: f64) -> f32 {
 /// `n` rays from inside the box (`[-0.7, 0.7]³`), random directions, targets, masks, codes, p.
 fn inside_rays(n: usize, seed: u64) -> Batch {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-    let mut b = Batch {
-        origins: vec![],
-        dirs: vec![],
-        rgb: vec![],
-        mask: vec![],
-        codes: vec![],
-        p: vec![],
-    };
+    let mut b = Batch::default();
     for _ in 0..n {
         b.origins
             .push([0; 3].map(|_| quantise(rng.random_range(-0.7..0.7))));

@@ -162,23 +162,11 @@ pub fn read_true_cameras(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::camera::{centred_intrinsics, look_at};
+    use crate::scene::camera::tests::orbit;
 
     #[test]
     fn a_perturbation_has_exactly_the_asked_size() {
-        let cams: Vec<Camera> = (0..8)
-            .map(|i| {
-                let a = i as f64;
-                look_at(
-                    Vector3::new(a.cos() * 3.0, a.sin() * 3.0, 1.0),
-                    Vector3::zeros(),
-                    Vector3::z(),
-                    centred_intrinsics(200.0, 64, 48),
-                    64,
-                    48,
-                )
-            })
-            .collect();
+        let cams = orbit(8, 1.0, |_| 1.0);
         let moved = perturb(&cams, 0.5, 3.0, 7);
         for (t, e) in cams.iter().zip(&moved) {
             let p = pose_error(t, e);

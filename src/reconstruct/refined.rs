@@ -27,30 +27,25 @@ pub(super) fn write_refined(
     let offset = n.center.into();
     let train: Vec<Camera> = p.cameras().into_iter().cloned().collect();
     let fixed = state.corrected(&train);
-    let mut world: Vec<Camera> = p
+    let imported: Vec<Camera> = p
         .scene
         .views
         .iter()
         .map(|v| v.camera.denormalized(n.scale, &offset))
         .collect();
+    let mut world = imported.clone();
     for (&i, c) in p.train_idx.iter().zip(&fixed) {
         world[i] = c.denormalized(n.scale, &offset);
     }
-    // Back to the images' own pixels when the run downscaled them (`data.downscale`):
-    // `K = diag(f, f, 1)·K'`, the inverse of `Camera::downscaled`.
-    let f = downscale as f64;
-    if f != 1.0 {
+    // Back to the images' own pixels when the run downscaled them (`data.downscale`).
+    if downscale != 1 {
         for (c, v) in world.iter_mut().zip(&p.scene.views) {
-            for col in 0..3 {
-                c.k[(0, col)] *= f;
-                c.k[(1, col)] *= f;
-            }
             let (w, h) =
                 image::image_dimensions(&v.image_path).map_err(|e| ReconstructError::Output {
                     path: v.image_path.clone(),
                     problem: e.to_string(),
                 })?;
-            (c.width, c.height) = (w, h);
+            *c = c.upscaled(downscale, w, h);
         }
     }
     let dir = out.join("refined");
@@ -86,12 +81,6 @@ pub(super) fn write_refined(
         let pick = |cams: &[Camera]| -> Vec<Camera> {
             p.train_idx.iter().map(|&i| cams[i].clone()).collect()
         };
-        let imported: Vec<Camera> = p
-            .scene
-            .views
-            .iter()
-            .map(|v| v.camera.denormalized(n.scale, &offset))
-            .collect();
         let t = pick(&truth);
         let before = mean_pose_error(&ref_list(&t), &ref_list(&pick(&imported)));
         let after = mean_pose_error(&ref_list(&t), &ref_list(&pick(&world)));

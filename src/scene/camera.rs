@@ -174,6 +174,23 @@ impl Camera {
         }
     }
 
+    /// The inverse of [`Camera::downscaled`]: `K = diag(f, f, 1)·K'`, for an image of
+    /// `width × height` pixels (the original size, which the downscale's floor lost).
+    pub fn upscaled(&self, factor: u32, width: u32, height: u32) -> Self {
+        let f = factor as f64;
+        let mut k = self.k;
+        for c in 0..3 {
+            k[(0, c)] *= f;
+            k[(1, c)] *= f;
+        }
+        Self {
+            k,
+            width,
+            height,
+            ..self.clone()
+        }
+    }
+
     /// Horizontal and vertical fields of view in degrees.
     pub fn fov_degrees(&self) -> (f64, f64) {
         let fx = self.k[(0, 0)];
@@ -245,6 +262,24 @@ pub(crate) mod tests {
     use super::*;
     use nalgebra::{Rotation3, Unit};
     use rand::{Rng, SeedableRng};
+
+    /// `n` 64×48 cameras (f = 200 px) on a circle of radius 3 about the z axis, `step` radians
+    /// apart, at height `lift(i)`, looking at the origin.
+    pub(crate) fn orbit(n: usize, step: f64, lift: impl Fn(usize) -> f64) -> Vec<Camera> {
+        (0..n)
+            .map(|i| {
+                let a = i as f64 * step;
+                look_at(
+                    Vector3::new(a.cos() * 3.0, a.sin() * 3.0, lift(i)),
+                    Vector3::zeros(),
+                    Vector3::z(),
+                    centred_intrinsics(200.0, 64, 48),
+                    64,
+                    48,
+                )
+            })
+            .collect()
+    }
 
     /// A random camera looking roughly at the origin from distance 2-4 (normalised-like space).
     pub(crate) fn random_camera(rng: &mut impl Rng) -> Camera {
@@ -356,5 +391,9 @@ pub(crate) mod tests {
         let (_, d_fine) = cam.ray(4.0 * 10.0 + 2.0, 4.0 * 20.0 + 2.0);
         let (_, d_coarse) = small.ray(10.5, 20.5);
         assert!((d_fine - d_coarse).norm() < 1e-12);
+        // Upscaling undoes it, the original size given back.
+        let back = small.upscaled(4, cam.width, cam.height);
+        assert!((back.k - cam.k).norm() < 1e-12 * cam.k.norm());
+        assert_eq!((back.width, back.height), (cam.width, cam.height));
     }
 }

@@ -422,20 +422,8 @@ mod tests {
     /// part are left alone; a mix keeps exactly its own part.
     #[test]
     fn the_common_similarity_is_removed_and_nothing_else() {
-        use crate::scene::camera::{centred_intrinsics, look_at};
-        let cams: Vec<Camera> = (0..12)
-            .map(|i| {
-                let a = i as f64 * 0.5;
-                look_at(
-                    Vector3::new(a.cos() * 3.0, a.sin() * 3.0, 1.0 + (i % 3) as f64 * 0.4),
-                    Vector3::zeros(),
-                    Vector3::z(),
-                    centred_intrinsics(200.0, 64, 48),
-                    64,
-                    48,
-                )
-            })
-            .collect();
+        use crate::scene::camera::tests::orbit;
+        let cams = orbit(12, 0.5, |i| 1.0 + (i % 3) as f64 * 0.4);
         let c2w: Vec<Matrix3<f64>> = cams.iter().map(|c| c.r.transpose()).collect();
         let ctr: Vec<Vector3<f64>> = cams.iter().map(|c| c.center).collect();
         let (theta, delta, sigma) = (

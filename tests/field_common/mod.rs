@@ -105,6 +105,7 @@ pub fn perturbed_params(model: &NeusModel, seed: u64) -> Vec<f32> {
 }
 
 /// `n` rays from a sphere of radius 2.5 aimed near the origin, with targets, masks, codes and p.
+#[derive(Default)]
 pub struct Batch {
     pub origins: Vec<[f32; 3]>,
     pub dirs: Vec<[f32; 3]>,
@@ -116,14 +117,7 @@ pub struct Batch {
 
 pub fn batch(n: usize, seed: u64) -> Batch {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-    let mut b = Batch {
-        origins: vec![],
-        dirs: vec![],
-        rgb: vec![],
-        mask: vec![],
-        codes: vec![],
-        p: vec![],
-    };
+    let mut b = Batch::default();
     for _ in 0..n {
         let mut o = [0f32; 3];
         loop {
