@@ -2,6 +2,7 @@
 
 use anyhow::{bail, Context};
 use neus_aug::import::export;
+use neus_aug::import::perturb::Perturbation;
 use neus_aug::sim::{self, GenerateOptions, SceneDescription};
 use std::path::{Path, PathBuf};
 
@@ -59,24 +60,36 @@ pub struct SynthArgs {
     #[arg(long, value_enum)]
     pub export: Vec<ExportFormat>,
     /// Perturb every pose after rendering by exactly DEG degrees (about a random axis through
-    /// the camera's centre) and DIST world units (mm; a random direction), seeded by --seed: the
-    /// scene's cameras_sphere.npz then holds the perturbed poses and cameras_sphere_true.npz the
-    /// true ones, which `reconstruct` with `train.pose_refine.enabled = true` measures against.
-    #[arg(long, value_name = "DEG,DIST", value_parser = parse_perturbation)]
-    pub perturb_poses: Option<[f64; 2]>,
+    /// the camera's centre) and DIST world units (mm; a random direction), and optionally every
+    /// focal length by FOCAL percent, seeded by --seed: the scene's cameras_sphere.npz then holds
+    /// the perturbed cameras and cameras_sphere_true.npz the true ones, which `reconstruct` with
+    /// `train.pose_refine.enabled = true` measures against.
+    #[arg(long, value_name = "DEG,DIST[,FOCAL]", value_parser = parse_perturbation)]
+    pub perturb_poses: Option<Perturbation>,
 }
 
-fn parse_perturbation(s: &str) -> Result<[f64; 2], String> {
-    let bad = || format!("'{s}' is not DEG,DIST (e.g. 0.5,3: half a degree and 3 mm)");
-    let (a, b) = s.split_once(',').ok_or_else(bad)?;
-    let (a, b): (f64, f64) = (
-        a.trim().parse().map_err(|_| bad())?,
-        b.trim().parse().map_err(|_| bad())?,
-    );
-    if !(a.is_finite() && b.is_finite() && a >= 0.0 && b >= 0.0) {
-        return Err(format!("'{s}': both must be finite and ≥ 0"));
+fn parse_perturbation(s: &str) -> Result<Perturbation, String> {
+    let bad = || {
+        format!(
+            "'{s}' is not DEG,DIST[,FOCAL] (e.g. 0.5,3: half a degree and 3 mm; 0,0,5: the \
+             focal 5 % long)"
+        )
+    };
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse().map_err(|_| bad()))
+        .collect::<Result<_, _>>()?;
+    if !(2..=3).contains(&v.len()) {
+        return Err(bad());
     }
-    Ok([a, b])
+    if !(v.iter().all(|x| x.is_finite()) && v[0] >= 0.0 && v[1] >= 0.0) {
+        return Err(format!("'{s}': DEG and DIST must be finite and ≥ 0"));
+    }
+    Ok(Perturbation {
+        degrees: v[0],
+        dist: v[1],
+        focal_pct: v.get(2).copied().unwrap_or(0.0),
+    })
 }
 
 /// Camera formats `synth --export` writes.
@@ -230,13 +243,15 @@ pub fn run(args: SynthArgs) -> anyhow::Result<()> {
             report.mesh_genus
         ),
     }
-    if let Some([deg, dist]) = args.perturb_poses {
-        let e = neus_aug::import::perturb::perturb_scene(&out, deg, dist, desc.seed)
+    if let Some(p) = &args.perturb_poses {
+        let e = neus_aug::import::perturb::perturb_scene(&out, p, desc.seed)
             .with_context(|| format!("cannot perturb the poses of {}", out.display()))?;
         println!(
-            "perturbed every pose by {:.3}° and {:.3} mm (true cameras: {})",
+            "perturbed every pose by {:.3}° and {:.3} mm, every focal length by {} % (true \
+             cameras: {})",
             e.rotation_deg,
             e.centre,
+            p.focal_pct,
             out.join(neus_aug::import::perturb::TRUE_CAMERA_FILE)
                 .display()
         );

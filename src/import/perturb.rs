@@ -1,6 +1,7 @@
 //! Known pose errors, for measuring pose refinement (`train.pose_refine`): `synth
-//! --perturb-poses DEG,DIST` moves every camera of a rendered scene by exactly `DEG` degrees
-//! about a random axis through its centre and `DIST` world units in a random direction, keeps
+//! --perturb-poses DEG,DIST[,FOCAL]` moves every camera of a rendered scene by exactly `DEG`
+//! degrees about a random axis through its centre and `DIST` world units in a random direction
+//! (and scales every focal length by `1 + FOCAL/100`, as a self-calibration error would), keeps
 //! the true cameras as `cameras_sphere_true.npz`, and writes the perturbed ones as the scene's
 //! `cameras_sphere.npz` (the images stay those of the true cameras). [`pose_error`] measures a
 //! camera against the truth the way BARF reports it (Lin et al. 2021, §4: rotation angle and
@@ -84,36 +85,55 @@ fn unit(rng: &mut Pcg64Mcg) -> Vector3<f64> {
     }
 }
 
-/// Every camera turned by exactly `degrees` about a random axis through its centre and its
-/// centre moved by exactly `dist` in a random direction (seeded).
-pub fn perturb(cameras: &[Camera], degrees: f64, dist: f64, seed: u64) -> Vec<Camera> {
+/// A known error of every camera (see the module doc).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Perturbation {
+    /// Rotation about a random axis through the centre, degrees.
+    pub degrees: f64,
+    /// Move of the centre in a random direction, world units.
+    pub dist: f64,
+    /// Focal lengths (and skew) scaled by `1 + focal_pct/100`.
+    pub focal_pct: f64,
+}
+
+/// Every camera turned by exactly `p.degrees` about a random axis through its centre, its
+/// centre moved by exactly `p.dist` in a random direction (seeded), and its focal lengths
+/// scaled by `1 + p.focal_pct/100`.
+pub fn perturb(cameras: &[Camera], p: &Perturbation, seed: u64) -> Vec<Camera> {
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x706f_7365);
+    let phi = (1.0 + p.focal_pct / 100.0).ln();
     cameras
         .iter()
         .map(|c| {
-            let w = unit(&mut rng) * degrees.to_radians();
-            let t = unit(&mut rng) * dist;
+            let w = unit(&mut rng) * p.degrees.to_radians();
+            let t = unit(&mut rng) * p.dist;
             Camera {
                 r: exp_so3(&w) * c.r,
                 center: c.center + t,
-                ..c.clone()
+                ..crate::train::pose_refine::with_focal_scale(c, phi)
             }
         })
         .collect()
 }
 
 /// Perturbs the cameras of the scene folder `scene` (see the module doc). Refused when the
-/// scene already holds [`TRUE_CAMERA_FILE`] (it was perturbed once) or when the angle or
-/// distance is negative or not finite. Returns the mean error written.
-pub fn perturb_scene(
-    scene: &Path,
-    degrees: f64,
-    dist: f64,
-    seed: u64,
-) -> Result<PoseError, ImportError> {
+/// scene already holds [`TRUE_CAMERA_FILE`] (it was perturbed once), when the angle or
+/// distance is negative or not finite, or when the focal change is not in (−50, 100] %.
+/// Returns the mean pose error written.
+pub fn perturb_scene(scene: &Path, p: &Perturbation, seed: u64) -> Result<PoseError, ImportError> {
+    let Perturbation {
+        degrees,
+        dist,
+        focal_pct,
+    } = *p;
     if !(degrees.is_finite() && degrees >= 0.0 && dist.is_finite() && dist >= 0.0) {
         return Err(ImportError::Export(format!(
             "a pose perturbation of {degrees}° and {dist} must be finite and ≥ 0"
+        )));
+    }
+    if !(focal_pct > -50.0 && focal_pct <= 100.0) {
+        return Err(ImportError::Export(format!(
+            "a focal perturbation of {focal_pct} % must be in (−50, 100]"
         )));
     }
     let truth_path = scene.join(TRUE_CAMERA_FILE);
@@ -138,7 +158,7 @@ pub fn perturb_scene(
         file: cam_path.clone(),
         message: format!("'scale_mat_0' {message}"),
     })?;
-    let moved = perturb(&sc.cameras, degrees, dist, seed);
+    let moved = perturb(&sc.cameras, p, seed);
     std::fs::copy(&cam_path, &truth_path).map_err(super::io_err(&truth_path))?;
     let refs: Vec<&Camera> = moved.iter().collect();
     write_cameras(scene, &refs, &norm).map_err(|e| ImportError::Export(e.to_string()))?;
@@ -167,15 +187,36 @@ mod tests {
     #[test]
     fn a_perturbation_has_exactly_the_asked_size() {
         let cams = orbit(8, 1.0, |_| 1.0);
-        let moved = perturb(&cams, 0.5, 3.0, 7);
+        let size = Perturbation {
+            degrees: 0.5,
+            dist: 3.0,
+            focal_pct: 0.0,
+        };
+        let moved = perturb(&cams, &size, 7);
         for (t, e) in cams.iter().zip(&moved) {
             let p = pose_error(t, e);
             assert!((p.rotation_deg - 0.5).abs() < 1e-9, "{p:?}");
             assert!((p.centre - 3.0).abs() < 1e-9, "{p:?}");
             assert_eq!(t.k, e.k);
         }
-        assert_eq!(perturb(&cams, 0.5, 3.0, 7), moved, "seeded");
-        assert_ne!(perturb(&cams, 0.5, 3.0, 8), moved);
+        assert_eq!(perturb(&cams, &size, 7), moved, "seeded");
+        assert_ne!(perturb(&cams, &size, 8), moved);
+        // A focal change scales fx, fy (and skew) and nothing else; the poses are those of
+        // the same seed without it.
+        let longer = perturb(
+            &cams,
+            &Perturbation {
+                focal_pct: 10.0,
+                ..size
+            },
+            7,
+        );
+        for (a, b) in moved.iter().zip(&longer) {
+            assert_eq!((a.r, a.center), (b.r, b.center));
+            assert!((b.k[(0, 0)] / a.k[(0, 0)] - 1.1).abs() < 1e-12);
+            assert!((b.k[(1, 1)] / a.k[(1, 1)] - 1.1).abs() < 1e-12);
+            assert_eq!((a.k[(0, 2)], a.k[(1, 2)]), (b.k[(0, 2)], b.k[(1, 2)]));
+        }
         assert_eq!(pose_error(&cams[0], &cams[0]), PoseError::default());
         let pts = [Vector3::zeros(), Vector3::new(0.3, -0.2, 0.1)];
         assert_eq!(reprojection_px(&cams[0], &cams[0], &pts), 0.0);

@@ -127,6 +127,10 @@ pub struct PoseRefineSummary {
     /// Mean and largest move of a camera's centre, world units (mm on DTU).
     pub mean_translation: f64,
     pub max_translation: f64,
+    /// With the focal learned (`train.pose_refine.focal`): the focal scale `e^φ` learned for each
+    /// camera model (views sharing an intrinsic matrix); absent otherwise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub focal_scale: Vec<f64>,
     /// Against the true cameras of a scene whose poses were perturbed (`synth
     /// --perturb-poses`): mean error of the training views before and after refinement.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -148,6 +152,11 @@ pub struct PoseTruth {
     pub before_px: f64,
     #[serde(default)]
     pub after_px: f64,
+    /// Mean relative error of the focal length `fx_est/fx_true − 1`, percent.
+    #[serde(default)]
+    pub before_focal_pct: f64,
+    #[serde(default)]
+    pub after_focal_pct: f64,
 }
 
 impl PoseRefineSummary {
@@ -170,6 +179,7 @@ impl PoseRefineSummary {
             max_rotation_deg: rot.iter().copied().fold(0.0, f64::max),
             mean_translation: tr.iter().sum::<f64>() / n,
             max_translation: tr.iter().copied().fold(0.0, f64::max),
+            focal_scale: state.focal_scales(),
             truth: None,
         }
     }

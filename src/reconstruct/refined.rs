@@ -12,7 +12,7 @@ use crate::import::export::colmap_model;
 use crate::import::perturb::{mean_pose_error, reprojection_px};
 use crate::scene::dtu::write_cameras;
 use crate::scene::Camera;
-use crate::train::pose_refine::PoseState;
+use crate::train::pose_refine::{camera_models, same_model, with_focal_scale, PoseState};
 use std::path::Path;
 
 /// Writes `out/refined/` (see the module doc) and returns what the corrections amount to.
@@ -34,6 +34,15 @@ pub(super) fn write_refined(
         .map(|v| v.camera.denormalized(n.scale, &offset))
         .collect();
     let mut world = imported.clone();
+    // A learned focal belongs to the camera model: held-out views of a training view's model
+    // get it too (their poses stay as imported).
+    let (model, _) = camera_models(&train);
+    for (w, v) in world.iter_mut().zip(&p.scene.views) {
+        if let Some(j) = train.iter().position(|c| same_model(c, &v.camera)) {
+            let phi = state.focal.get(model[j]).map_or(0.0, |f| f[0]);
+            *w = with_focal_scale(w, phi);
+        }
+    }
     for (&i, c) in p.train_idx.iter().zip(&fixed) {
         world[i] = c.denormalized(n.scale, &offset);
     }
@@ -96,19 +105,21 @@ pub(super) fn write_refined(
             let pairs: Vec<f64> = t
                 .iter()
                 .zip(est)
-                .map(|(a, b)| {
-                    // In the true camera's pixels (the run may have downscaled its images).
-                    let b = Camera {
-                        r: b.r,
-                        center: b.center,
-                        ..a.clone()
-                    };
-                    reprojection_px(a, &b, &pts)
-                })
+                .map(|(a, b)| reprojection_px(a, &in_pixels_of(b, a), &pts))
                 .collect();
             pairs.iter().sum::<f64>() / pairs.len().max(1) as f64
         };
+        let focal_pct = |est: &[Camera]| {
+            let e: Vec<f64> = t
+                .iter()
+                .zip(est)
+                .map(|(a, b)| (in_pixels_of(b, a).k[(0, 0)] / a.k[(0, 0)] - 1.0) * 100.0)
+                .collect();
+            e.iter().sum::<f64>() / e.len().max(1) as f64
+        };
         summary.truth = Some(PoseTruth {
+            before_focal_pct: focal_pct(&pick(&imported)),
+            after_focal_pct: focal_pct(&pick(&world)),
             before_rotation_deg: before.rotation_deg,
             before_centre: before.centre,
             after_rotation_deg: after.rotation_deg,
@@ -118,6 +129,16 @@ pub(super) fn write_refined(
         });
     }
     Ok(summary)
+}
+
+/// `est` in the pixels of `truth`'s images (the run may have downscaled its images by an
+/// integer factor; `Camera::upscaled` undoes it).
+fn in_pixels_of(est: &Camera, truth: &Camera) -> Camera {
+    if est.width == truth.width || est.width == 0 {
+        est.clone()
+    } else {
+        est.upscaled(truth.width / est.width, truth.width, truth.height)
+    }
 }
 
 fn ref_list(v: &[Camera]) -> Vec<&Camera> {

@@ -10,7 +10,9 @@
 //! - with error-map sampling (`train.error_map`), `error_map.err` and `error_map.cdf`: f32
 //!   `[n_cells]` ([`super::error_map::ErrorMap`]);
 //! - with pose refinement (`train.pose_refine`), `pose.state`: f64 `[views, 18]`, each view's
-//!   correction `ω, t` and their Adam moments (metadata `pose_t`: Adam's steps).
+//!   correction `ω, t` and their Adam moments (metadata `pose_t`: Adam's steps); with the focal
+//!   learned too (`train.pose_refine.focal`), `pose.focal`: f64 `[camera models, 3]`, each
+//!   model's focal log scale `φ` and its moments.
 //!
 //! Metadata (strings): `format` = `neus-aug-checkpoint-1`, `step` (completed steps), `adam_t`,
 //! `num_rays` (the dynamic ray count), `skipped_steps`, `config_hash` (of the resolved run
@@ -23,6 +25,9 @@ use super::pose_refine::PoseState;
 /// The tensor of pose refinement's state: `[views][18]` f64 rows `ω, t, m, v`
 /// ([`PoseState::to_rows`]).
 const POSE_TENSOR: &str = "pose.state";
+/// The tensor of the learned focal scales: `[models][3]` f64 rows `φ, m, v`
+/// ([`PoseState::focal_rows`]); absent when the focal is not learned.
+const FOCAL_TENSOR: &str = "pose.focal";
 use crate::field::ParamLayout;
 use crate::render::occupancy::OccupancyGrid;
 use safetensors::tensor::{Dtype, TensorView};
@@ -143,6 +148,16 @@ pub fn save(
             Dtype::F64,
             bytes,
         ));
+        if !ps.focal.is_empty() {
+            let rows = ps.focal_rows();
+            let bytes = rows.iter().flat_map(|x| x.to_le_bytes()).collect();
+            owned.push((
+                FOCAL_TENSOR.into(),
+                vec![rows.len() / 3, 3],
+                Dtype::F64,
+                bytes,
+            ));
+        }
     }
     let views: Vec<(String, TensorView)> = owned
         .iter()
@@ -335,20 +350,32 @@ pub fn load(
             )
         }
     };
-    let pose =
-        match pose_views {
-            None => None,
-            Some(views) => {
-                let raw = tensor(POSE_TENSOR, Dtype::F64, &[views, 18])?;
-                let rows: Vec<f64> = raw
-                    .chunks_exact(8)
+    let pose = match pose_views {
+        None => None,
+        Some(views) => {
+            let f64s = |raw: Vec<u8>| -> Vec<f64> {
+                raw.chunks_exact(8)
                     .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-                    .collect();
-                Some(PoseState::from_rows(&rows, num("pose_t")?).ok_or_else(|| {
-                    invalid(format!("tensor {POSE_TENSOR}: a value is not finite"))
-                })?)
-            }
-        };
+                    .collect()
+            };
+            let rows = f64s(tensor(POSE_TENSOR, Dtype::F64, &[views, 18])?);
+            // The focal scales are optional: as many rows as the scene has camera models.
+            let focal = match st.tensor(FOCAL_TENSOR).ok().map(|t| t.shape().to_vec()) {
+                Some(shape) if shape.len() == 2 => {
+                    f64s(tensor(FOCAL_TENSOR, Dtype::F64, &[shape[0], 3])?)
+                }
+                Some(shape) => return Err(invalid(format!("tensor {FOCAL_TENSOR} is {shape:?}"))),
+                None => Vec::new(),
+            };
+            Some(
+                PoseState::from_rows(&rows, &focal, num("pose_t")?).ok_or_else(|| {
+                    invalid(format!(
+                        "tensor {POSE_TENSOR} or {FOCAL_TENSOR}: a value is not finite"
+                    ))
+                })?,
+            )
+        }
+    };
     Ok(TrainState {
         step: num("step")?,
         params,

@@ -96,6 +96,28 @@ impl PoseCorrection {
     }
 }
 
+/// A camera-frame direction `v` (`v.z > 0`, any length) as the same pixel casts it when the
+/// camera's focal lengths are multiplied by `e^φ` (principal point and skew ratio kept): the
+/// pixel's normalised coordinates `(v.x/v.z, v.y/v.z)` shrink by `e^−φ`. Returns the unit
+/// direction. NeRF−− (Wang et al. 2021) learns the focal lengths with the field the same way,
+/// through the rays; a log scale keeps the focal positive and its steps relative.
+pub fn apply_focal(phi: f64, v: &Vector3<f64>) -> Vector3<f64> {
+    let s = (-phi).exp() / v.z;
+    Vector3::new(v.x * s, v.y * s, 1.0).normalize()
+}
+
+/// Backward of [`apply_focal`]: the gradient `g` of a loss with respect to its output, turned
+/// into the gradient with respect to `φ`.
+pub fn focal_backward(phi: f64, v: &Vector3<f64>, g: &Vector3<f64>) -> f64 {
+    let s = (-phi).exp() / v.z;
+    let w = Vector3::new(v.x * s, v.y * s, 1.0);
+    let n = w.norm();
+    let u = w / n;
+    // ∂w/∂φ = (−w.x, −w.y, 0); ∂(w/|w|)/∂w = (I − u uᵀ)/|w|.
+    let dw = Vector3::new(-w.x, -w.y, 0.0);
+    (dw - u * u.dot(&dw)).dot(g) / n
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -170,6 +192,34 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// The focal scale's gradient against central differences in f64, from a tenth of a percent
+    /// to a third of the focal, on directions across a wide field of view; zero is the
+    /// identity, and a larger focal narrows every ray towards the axis.
+    #[test]
+    fn the_focal_gradient_matches_finite_differences() {
+        let mut rng = Pcg64Mcg::seed_from_u64(11);
+        for trial in 0..40 {
+            let phi = [0.0, 1e-3, -0.05, 0.3][trial % 4];
+            let v = Vector3::new(
+                rng.random_range(-0.8..0.8),
+                rng.random_range(-0.6..0.6),
+                rng.random_range(0.5..2.0),
+            );
+            let g = rand_vec(&mut rng, 1.0);
+            let loss = |p: f64| g.dot(&apply_focal(p, &v));
+            let h = 1e-6;
+            let fd = (loss(phi + h) - loss(phi - h)) / (2.0 * h);
+            let an = focal_backward(phi, &v, &g);
+            assert!(
+                (an - fd).abs() < 1e-8 * (1.0 + fd.abs()),
+                "trial {trial}, φ {phi}: {an} vs {fd}"
+            );
+            assert!((apply_focal(0.0, &v) - v.normalize()).norm() < 1e-15);
+            let narrow = apply_focal(0.1, &v);
+            assert!(narrow.z > v.normalize().z || v.x.hypot(v.y) < 1e-12);
         }
     }
 

@@ -19,11 +19,15 @@
 //!   so the refined cameras keep the imported ones' mean frame, as BARF's evaluation aligns
 //!   them to it after the fact (Lin et al. 2021, §4, Procrustes).
 //!
+//! - optionally (`focal = true`), one focal-length scale `e^φ` per camera model (the training
+//!   views that share an intrinsic matrix), learned the same way ([`apply_focal`]), for
+//!   intrinsics that came from self-calibration; not part of the gauge.
+//!
 //! The corrected rays replace the batch's rays before rendering, so the depth prior, when on,
 //! sees them too. Units: `ω` in radians, `t` in the normalised frame's length (the object's
 //! bounding sphere has radius 1).
 
-use super::pose::{exp_so3, PoseCorrection};
+use super::pose::{apply_focal, exp_so3, focal_backward, PoseCorrection};
 use crate::render::{ray_grad, RayGradCell};
 use crate::scene::Camera;
 use nalgebra::{Matrix3, Vector3};
@@ -45,8 +49,14 @@ pub struct PoseRefineConfig {
     pub start: f64,
     /// Share of the run after which the corrections stop moving (1.0: to the end).
     pub until: f64,
-    /// Weight of the L2 penalty on `(ω, t)` (1e-3).
+    /// Weight of the L2 penalty on `(ω, t)` (1e-3), and on `φ` when the focal is learned.
     pub weight: f64,
+    /// Also learn one focal-length scale per camera model (false).
+    pub focal: bool,
+    /// Adam's learning rate of the focal's log scale `φ` at the start (1e-3), decaying like
+    /// `lr`: ten times `lr`, so that a focal 10 % off (φ ≈ 0.1) is within reach of a `quick`
+    /// run.
+    pub focal_lr: f64,
 }
 
 impl Default for PoseRefineConfig {
@@ -58,6 +68,8 @@ impl Default for PoseRefineConfig {
             start: 0.1,
             until: 1.0,
             weight: 1e-3,
+            focal: false,
+            focal_lr: 1e-3,
         }
     }
 }
@@ -78,6 +90,13 @@ impl PoseRefineConfig {
             return Some((
                 "train.pose_refine.lr_end",
                 self.lr_end,
+                "must be finite and > 0",
+            ));
+        }
+        if !pos(self.focal_lr) {
+            return Some((
+                "train.pose_refine.focal_lr",
+                self.focal_lr,
                 "must be finite and > 0",
             ));
         }
@@ -123,17 +142,22 @@ pub struct PoseState {
     /// `[views][6]` Adam's first and second moments of `(ω, t)`.
     pub m: Vec<[f64; 6]>,
     pub v: Vec<[f64; 6]>,
+    /// `[camera models]` the focal's log scale `φ` and its Adam moments (empty when the focal
+    /// is not learned).
+    pub focal: Vec<[f64; 3]>,
     /// Adam steps taken.
     pub t: u64,
 }
 
 impl PoseState {
-    /// Zero corrections and moments for `views` views.
-    pub fn new(views: usize) -> Self {
+    /// Zero corrections and moments for `views` views and `models` focal scales (0 when the
+    /// focal is not learned).
+    pub fn new(views: usize, models: usize) -> Self {
         Self {
             corrections: vec![PoseCorrection::default(); views],
             m: vec![[0.0; 6]; views],
             v: vec![[0.0; 6]; views],
+            focal: vec![[0.0; 3]; models],
             t: 0,
         }
     }
@@ -149,13 +173,23 @@ impl PoseState {
         out
     }
 
-    /// The inverse of [`Self::to_rows`]; `None` when the length is not a multiple of 18 or a
-    /// value is not finite (or a second moment negative).
-    pub fn from_rows(rows: &[f64], t: u64) -> Option<Self> {
-        if !rows.len().is_multiple_of(18) || rows.iter().any(|v| !v.is_finite()) {
+    /// `[models][3]` rows `φ, m, v` (the checkpoint's focal tensor; empty when not learned).
+    pub fn focal_rows(&self) -> Vec<f64> {
+        self.focal.concat()
+    }
+
+    /// The inverse of [`Self::to_rows`] and [`Self::focal_rows`]; `None` when a length is not
+    /// a multiple of its row, or a value is not finite (or a second moment negative).
+    pub fn from_rows(rows: &[f64], focal: &[f64], t: u64) -> Option<Self> {
+        let bad =
+            |r: &[f64], n: usize| !r.len().is_multiple_of(n) || r.iter().any(|v| !v.is_finite());
+        if bad(rows, 18) || bad(focal, 3) || focal.chunks_exact(3).any(|f| f[2] < 0.0) {
             return None;
         }
-        let mut s = Self::new(rows.len() / 18);
+        let mut s = Self::new(rows.len() / 18, focal.len() / 3);
+        for (f, r) in s.focal.iter_mut().zip(focal.chunks_exact(3)) {
+            f.copy_from_slice(r);
+        }
         for (i, r) in rows.chunks_exact(18).enumerate() {
             s.corrections[i] = PoseCorrection {
                 omega: Vector3::new(r[0], r[1], r[2]),
@@ -172,19 +206,75 @@ impl PoseState {
     }
 
     /// The cameras with the corrections applied: `R' = R(ω)ᵀ·R`, `C' = C + Rᵀ·t` (the corrected
-    /// camera-to-world is `C2W·[R(ω) | t]`, [`PoseCorrection`]). `cameras` in the frame the
-    /// corrections were learned in (the normalised one).
+    /// camera-to-world is `C2W·[R(ω) | t]`, [`PoseCorrection`]), and with the focal learned,
+    /// `K`'s focal lengths and skew times `e^φ` of the camera's model ([`camera_models`]).
+    /// `cameras` in the frame and order the corrections were learned in (the normalised one).
     pub fn corrected(&self, cameras: &[Camera]) -> Vec<Camera> {
+        let (model, _) = camera_models(cameras);
         cameras
             .iter()
             .zip(&self.corrections)
-            .map(|(c, p)| Camera {
-                r: exp_so3(&p.omega).transpose() * c.r,
-                center: c.center + c.r.transpose() * p.t,
-                ..c.clone()
+            .zip(model)
+            .map(|((c, p), m)| {
+                let phi = self.focal.get(m).map_or(0.0, |f| f[0]);
+                Camera {
+                    r: exp_so3(&p.omega).transpose() * c.r,
+                    center: c.center + c.r.transpose() * p.t,
+                    ..with_focal_scale(c, phi)
+                }
             })
             .collect()
     }
+
+    /// The focal scale `e^φ` learned for each camera model (empty when not learned).
+    pub fn focal_scales(&self) -> Vec<f64> {
+        self.focal.iter().map(|f| f[0].exp()).collect()
+    }
+}
+
+/// The camera models of `cameras`: the index of each camera's model, and how many there are.
+/// Cameras share a model when their image sizes and intrinsic matrices agree ([`same_model`]),
+/// as the views of one physical camera do (COLMAP's `camera_id`).
+pub fn camera_models(cameras: &[Camera]) -> (Vec<usize>, usize) {
+    let mut firsts: Vec<&Camera> = Vec::new();
+    let model = cameras
+        .iter()
+        .map(|c| {
+            firsts
+                .iter()
+                .position(|f| same_model(f, c))
+                .unwrap_or_else(|| {
+                    firsts.push(c);
+                    firsts.len() - 1
+                })
+        })
+        .collect();
+    (model, firsts.len())
+}
+
+/// Whether two cameras are views of one camera model: the same image size and intrinsic
+/// matrices that agree to 1e-6 of the focal length (a `cameras_sphere.npz` stores `K·[R|t]`
+/// per view, and decomposing it leaves each view's `K` a few ulps from the others').
+pub fn same_model(a: &Camera, b: &Camera) -> bool {
+    let tol = 1e-6 * a.k[(0, 0)].abs().max(a.k[(1, 1)].abs());
+    (a.width, a.height) == (b.width, b.height)
+        && a.k
+            .iter()
+            .zip(b.k.iter())
+            .all(|(x, y)| (x - y).abs() <= tol)
+}
+
+/// `camera` with its focal lengths and skew multiplied by `e^φ` (principal point kept): the
+/// camera [`apply_focal`] casts the rays of.
+pub fn with_focal_scale(camera: &Camera, phi: f64) -> Camera {
+    let mut c = camera.clone();
+    if phi != 0.0 {
+        let s = phi.exp();
+        for (r, col) in [(0, 0), (0, 1), (1, 1)] {
+            c.k[(r, col)] *= s;
+        }
+    }
+    c
 }
 
 /// What one refinement update did.
@@ -208,12 +298,19 @@ pub struct PoseRefiner {
     dirs: Vec<[f32; 3]>,
     cells: Vec<RayGradCell>,
     grads: Vec<[f64; 6]>,
+    /// `[views]` camera model of each view ([`camera_models`]) and `[models]` the focal's
+    /// gradient (empty when the focal is not learned).
+    model: Vec<usize>,
+    focal_grads: Vec<f64>,
 }
 
 impl PoseRefiner {
     /// For the training cameras `cameras` (normalised frame, training order).
     pub fn new(config: &PoseRefineConfig, cameras: &[Camera]) -> Self {
+        let (model, models) = camera_models(cameras);
         Self {
+            model,
+            focal_grads: vec![0.0; if config.focal { models } else { 0 }],
             config: config.clone(),
             c2w: cameras.iter().map(|c| c.r.transpose()).collect(),
             centres: cameras.iter().map(|c| c.center).collect(),
@@ -227,6 +324,21 @@ impl PoseRefiner {
     /// Number of views.
     pub fn n_views(&self) -> usize {
         self.c2w.len()
+    }
+
+    /// Number of focal scales learned (0 when the focal is not).
+    pub fn n_focal(&self) -> usize {
+        self.focal_grads.len()
+    }
+
+    /// The camera-frame direction of view `v`'s uncorrected direction `d` after its model's
+    /// focal scale (`Cᵀd` itself when the focal is not learned), unit length.
+    fn focal_dir(&self, state: &PoseState, v: usize, d: &Vector3<f64>) -> Vector3<f64> {
+        let local = self.c2w[v].transpose() * d;
+        match state.focal.get(self.model[v]) {
+            Some(f) => apply_focal(f[0], &local),
+            None => local,
+        }
     }
 
     /// Replaces each ray of view `views[i]` by its corrected ray (keeping the uncorrected one
@@ -252,7 +364,7 @@ impl PoseRefiner {
             let o = Vector3::from(origins[i].map(f64::from));
             let d = Vector3::from(dirs[i].map(f64::from));
             let o2 = o + c * p.t;
-            let d2 = c * (rot[v as usize] * (c.transpose() * d));
+            let d2 = c * (rot[v as usize] * self.focal_dir(state, v as usize, &d));
             origins[i] = [o2.x as f32, o2.y as f32, o2.z as f32];
             dirs[i] = [d2.x as f32, d2.y as f32, d2.z as f32];
         }
@@ -264,6 +376,40 @@ impl PoseRefiner {
     /// The gradient cells of the batch [`Self::correct`] last saw.
     pub fn cells(&self) -> &[RayGradCell] {
         &self.cells[..self.origins.len()]
+    }
+
+    /// Sums the cells' ray gradients of the batch into each view's `(ω, t)` gradient and each
+    /// camera model's focal gradient (`self.grads`, `self.focal_grads`). Whether every ray
+    /// gradient was finite.
+    fn gradients(&mut self, state: &PoseState, views: &[u32]) -> bool {
+        self.grads.iter_mut().for_each(|g| *g = [0.0; 6]);
+        self.focal_grads.iter_mut().for_each(|g| *g = 0.0);
+        let mut finite = true;
+        for (i, &v) in views.iter().enumerate() {
+            let (go, gd) = ray_grad(&self.cells[i]);
+            let v = v as usize;
+            let (c, gd) = (&self.c2w[v], Vector3::from(gd));
+            let d = Vector3::from(self.dirs[i].map(f64::from));
+            // The rotation acts on the focal-scaled direction: d' = C R(ω) F_φ(Cᵀd).
+            let scaled = state
+                .focal
+                .get(self.model[v])
+                .map(|f| c * apply_focal(f[0], &(c.transpose() * d)));
+            let d_rot = scaled.as_ref().unwrap_or(&d);
+            let g = state.corrections[v].backward(c, d_rot, &Vector3::from(go), &gd);
+            for k in 0..3 {
+                self.grads[v][k] += g.omega[k];
+                self.grads[v][3 + k] += g.t[k];
+            }
+            if let Some(fg) = self.focal_grads.get_mut(self.model[v]) {
+                let phi = state.focal[self.model[v]][0];
+                let rot = exp_so3(&state.corrections[v].omega);
+                let g_local = rot.transpose() * (c.transpose() * gd);
+                *fg += focal_backward(phi, &(c.transpose() * d), &g_local);
+            }
+            finite &= go.iter().all(|x| x.is_finite()) && gd.iter().all(|x| x.is_finite());
+        }
+        finite
     }
 
     /// One Adam step of the corrections from the cells' gradients (and the L2 penalty) at
@@ -282,25 +428,11 @@ impl PoseRefiner {
         };
         let n = state.corrections.len();
         if lr > 0.0 {
-            self.grads.iter_mut().for_each(|g| *g = [0.0; 6]);
-            let mut finite = true;
-            for (i, &v) in views.iter().enumerate() {
-                let (go, gd) = ray_grad(&self.cells[i]);
-                let v = v as usize;
-                let g = state.corrections[v].backward(
-                    &self.c2w[v],
-                    &Vector3::from(self.dirs[i].map(f64::from)),
-                    &Vector3::from(go),
-                    &Vector3::from(gd),
-                );
-                for k in 0..3 {
-                    self.grads[v][k] += g.omega[k];
-                    self.grads[v][3 + k] += g.t[k];
-                }
-                finite &= go.iter().chain(&gd).all(|x| x.is_finite());
-            }
+            let finite = self.gradients(state, views);
             if finite {
                 adam_step(&self.config, state, &self.grads, lr);
+                let focal_lr = lr * self.config.focal_lr / self.config.lr;
+                focal_adam_step(&self.config, state, &self.focal_grads, focal_lr);
                 remove_gauge(&self.c2w, &self.centres, &mut state.corrections);
             }
         }
@@ -352,6 +484,20 @@ pub fn remove_gauge(c2w: &[Matrix3<f64>], centres: &[Vector3<f64>], p: &mut [Pos
     for ((c, x), q) in c2w.iter().zip(centres).zip(p.iter_mut()) {
         q.omega -= c.transpose() * theta;
         q.t -= c.transpose() * (theta.cross(x) + delta + x * sigma);
+    }
+}
+
+/// The same Adam on each model's focal log scale `φ` with gradient `grads + 2·weight·φ`, after
+/// [`adam_step`] (which counts the step).
+fn focal_adam_step(cfg: &PoseRefineConfig, s: &mut PoseState, grads: &[f64], lr: f64) {
+    let (b1, b2, eps) = (0.9f64, 0.999f64, 1e-15);
+    let c1 = 1.0 - b1.powi(s.t as i32);
+    let c2 = 1.0 - b2.powi(s.t as i32);
+    for (f, &g) in s.focal.iter_mut().zip(grads) {
+        let gk = g + 2.0 * cfg.weight * f[0];
+        f[1] = b1 * f[1] + (1.0 - b1) * gk;
+        f[2] = b2 * f[2] + (1.0 - b2) * gk * gk;
+        f[0] -= lr * (f[1] / c1) / ((f[2] / c2).sqrt() + eps);
     }
 }
 
@@ -480,26 +626,111 @@ mod tests {
 
     #[test]
     fn the_state_round_trips_through_rows_and_refuses_bad_ones() {
-        let mut s = PoseState::new(3);
+        let mut s = PoseState::new(3, 2);
         s.corrections[1].omega = Vector3::new(0.1, -0.2, 0.3);
         s.corrections[2].t = Vector3::new(1.0, 2.0, -3.0);
         s.m[0][4] = 0.5;
         s.v[2][5] = 0.25;
+        s.focal[1] = [0.05, -0.01, 0.002];
         s.t = 17;
-        let rows = s.to_rows();
-        assert_eq!(rows.len(), 54);
-        assert_eq!(PoseState::from_rows(&rows, 17), Some(s));
-        assert!(PoseState::from_rows(&rows[..53], 17).is_none());
+        let (rows, focal) = (s.to_rows(), s.focal_rows());
+        assert_eq!((rows.len(), focal.len()), (54, 6));
+        assert_eq!(PoseState::from_rows(&rows, &focal, 17), Some(s.clone()));
+        assert!(PoseState::from_rows(&rows[..53], &focal, 17).is_none());
+        assert!(PoseState::from_rows(&rows, &focal[..5], 17).is_none());
+        let mut no_focal = s;
+        no_focal.focal.clear();
+        assert_eq!(PoseState::from_rows(&rows, &[], 17), Some(no_focal));
         let mut bad = rows.clone();
         bad[3] = f64::NAN;
-        assert!(PoseState::from_rows(&bad, 17).is_none());
-        bad = rows;
+        assert!(PoseState::from_rows(&bad, &focal, 17).is_none());
+        bad = rows.clone();
         bad[17] = -1.0;
-        assert!(PoseState::from_rows(&bad, 17).is_none());
+        assert!(PoseState::from_rows(&bad, &focal, 17).is_none());
+        let mut bad_focal = focal.clone();
+        bad_focal[5] = -1.0;
+        assert!(PoseState::from_rows(&rows, &bad_focal, 17).is_none());
+        bad_focal[5] = f64::INFINITY;
+        assert!(PoseState::from_rows(&rows, &bad_focal, 17).is_none());
+    }
+
+    /// The refiner's gradient of `(ω, t)` and of the focal's `φ`, chained through the
+    /// correction `d' = C R(ω) F_φ(Cᵀd)`, against central differences in f64 of a linear loss
+    /// `⟨a, o'⟩ + ⟨b, d'⟩` of the corrected rays (whose gradient the cells then hold).
+    #[test]
+    fn the_refiners_chained_gradient_matches_finite_differences() {
+        use crate::scene::camera::{centred_intrinsics, look_at};
+        use std::sync::atomic::Ordering;
+        let cam = look_at(
+            Vector3::new(1.0, -2.0, 1.5),
+            Vector3::new(0.1, 0.0, -0.1),
+            Vector3::z(),
+            centred_intrinsics(120.0, 64, 48),
+            64,
+            48,
+        );
+        let cfg = PoseRefineConfig {
+            enabled: true,
+            focal: true,
+            ..Default::default()
+        };
+        let mut refiner = PoseRefiner::new(&cfg, std::slice::from_ref(&cam));
+        let mut s = PoseState::new(1, 1);
+        s.corrections[0] = PoseCorrection {
+            omega: Vector3::new(0.02, -0.05, 0.03),
+            t: Vector3::new(0.01, 0.02, -0.03),
+        };
+        s.focal[0][0] = -0.07;
+        let (a, b) = (Vector3::new(0.3, -0.7, 0.2), Vector3::new(-0.4, 0.5, 0.9));
+        let (o, d) = cam.ray(5.5, 40.5);
+        let f32s = |v: Vector3<f64>| [v.x as f32, v.y as f32, v.z as f32];
+        let (mut os, mut ds) = ([f32s(o)], [f32s(d)]);
+        refiner.correct(&s, &[0], &mut os, &mut ds);
+        for (k, x) in a.iter().chain(b.iter()).enumerate() {
+            refiner.cells[0][k].store(f64::to_bits(*x), Ordering::Relaxed);
+        }
+        assert!(refiner.gradients(&s, &[0]));
+        // The loss in f64 from the ray the refiner kept (the f32 one).
+        let (o, d) = (
+            Vector3::from(refiner.origins[0].map(f64::from)),
+            Vector3::from(refiner.dirs[0].map(f64::from)),
+        );
+        let c = cam.r.transpose();
+        let loss = |q: &PoseState| {
+            let local = apply_focal(q.focal[0][0], &(c.transpose() * d));
+            let (o2, d2) = q.corrections[0].apply(&c, &o, &(c * local));
+            a.dot(&o2) + b.dot(&d2)
+        };
+        let h = 1e-6;
+        for k in 0..7 {
+            let (mut qp, mut qm) = (s.clone(), s.clone());
+            let nudge = |q: &mut PoseState, e: f64| match k {
+                0..3 => q.corrections[0].omega[k] += e,
+                3..6 => q.corrections[0].t[k - 3] += e,
+                _ => q.focal[0][0] += e,
+            };
+            nudge(&mut qp, h);
+            nudge(&mut qm, -h);
+            let fd = (loss(&qp) - loss(&qm)) / (2.0 * h);
+            let an = if k < 6 {
+                refiner.grads[0][k]
+            } else {
+                refiner.focal_grads[0]
+            };
+            assert!(
+                (an - fd).abs() < 1e-8 * (1.0 + fd.abs()),
+                "{k}: {an} vs {fd}"
+            );
+            assert!(fd.abs() > 1e-4, "{k}: the check must see a gradient");
+        }
+        // A non-finite ray gradient is reported.
+        refiner.cells[0][4].store(f64::NAN.to_bits(), Ordering::Relaxed);
+        assert!(!refiner.gradients(&s, &[0]));
     }
 
     /// A corrected camera casts the corrected rays: its centre is `o + C·t` and its ray through
-    /// a pixel is the rotated ray of the uncorrected camera through the same pixel.
+    /// a pixel is the ray the refiner casts in training for the uncorrected camera's ray through
+    /// the same pixel: rotated, and with the focal learned, narrowed by the focal scale.
     #[test]
     fn the_corrected_camera_casts_the_corrected_rays() {
         use crate::scene::camera::{centred_intrinsics, look_at};
@@ -515,16 +746,36 @@ mod tests {
             omega: Vector3::new(0.01, -0.02, 0.03),
             t: Vector3::new(0.05, 0.01, -0.02),
         };
-        let mut s = PoseState::new(1);
-        s.corrections[0] = p;
-        let fixed = s.corrected(std::slice::from_ref(&cam)).remove(0);
-        let (o, d) = cam.ray(10.5, 30.5);
-        let (o2, d2) = p.apply(&cam.r.transpose(), &o, &d);
-        let (o3, d3) = fixed.ray(10.5, 30.5);
-        assert!((o2 - o3).norm() < 1e-12, "{o2} {o3}");
-        assert!(
-            (d2.normalize() - d3.normalize()).norm() < 1e-12,
-            "{d2} {d3}"
-        );
+        for (focal, phi) in [(false, 0.0), (true, 0.0), (true, 0.08)] {
+            let cfg = PoseRefineConfig {
+                enabled: true,
+                focal,
+                ..Default::default()
+            };
+            let mut refiner = PoseRefiner::new(&cfg, std::slice::from_ref(&cam));
+            let mut s = PoseState::new(1, refiner.n_focal());
+            assert_eq!(s.focal.len(), usize::from(focal));
+            s.corrections[0] = p;
+            if focal {
+                s.focal[0][0] = phi;
+            }
+            let fixed = s.corrected(std::slice::from_ref(&cam)).remove(0);
+            assert!((fixed.k[(0, 0)] - 300.0 * phi.exp()).abs() < 1e-9);
+            for (u, v) in [(10.5, 30.5), (63.0, 0.5), (32.0, 24.0)] {
+                let (o, d) = cam.ray(u, v);
+                let mut os = [[o.x as f32, o.y as f32, o.z as f32]];
+                let mut ds = [[d.x as f32, d.y as f32, d.z as f32]];
+                refiner.correct(&s, &[0], &mut os, &mut ds);
+                let (o3, d3) = fixed.ray(u, v);
+                let (o2, d2) = (os[0].map(f64::from), ds[0].map(f64::from));
+                let (o2, d2) = (Vector3::from(o2), Vector3::from(d2));
+                assert!((o2 - o3).norm() < 1e-6, "{o2} {o3}");
+                assert!((d2 - d3).norm() < 1e-6, "focal {focal} φ {phi}: {d2} {d3}");
+                if !focal {
+                    let (o4, d4) = p.apply(&cam.r.transpose(), &o, &d);
+                    assert!((o4 - o3).norm() < 1e-12 && (d4 - d3).norm() < 1e-12);
+                }
+            }
+        }
     }
 }

@@ -201,7 +201,10 @@ impl<'a> Trainer<'a> {
                 .error_map
                 .enabled()
                 .then(|| ErrorMap::new(&self.config.error_map, &self.data.sizes())),
-            pose: self.pose.as_ref().map(|r| PoseState::new(r.n_views())),
+            pose: self
+                .pose
+                .as_ref()
+                .map(|r| PoseState::new(r.n_views(), r.n_focal())),
         }
     }
 
@@ -233,6 +236,16 @@ impl<'a> Trainer<'a> {
         );
         let refine = match (self.pose.as_mut(), state.pose.as_ref()) {
             (Some(r), Some(ps)) => {
+                if (ps.corrections.len(), ps.focal.len()) != (r.n_views(), r.n_focal()) {
+                    return Err(TrainError::State(format!(
+                        "the training state holds corrections of {} views and {} focal scales; \
+                         this scene's refinement needs {} and {}",
+                        ps.corrections.len(),
+                        ps.focal.len(),
+                        r.n_views(),
+                        r.n_focal()
+                    )));
+                }
                 let b = &mut self.batch;
                 r.correct(ps, &b.views, &mut b.origins, &mut b.dirs);
                 true
