@@ -15,8 +15,8 @@ impl NeusModel {
     /// Each ray's `(∂L/∂o, ∂L/∂d)` into `ctx.ray_grads` (nothing without it), the sample
     /// distances `t` held fixed. Every point where the SDF network ran (the sample `x = o + t·d`
     /// and its taps, which move with `x` except along an axis where the box clamps them) adds
-    /// its encoding's input gradient (of its row of `d_encoding`; the seven points of a
-    /// sample at once, [`crate::field::HashGrid::encode_fd_input_vjp`]) to `∂L/∂x`; then `∂L/∂o = Σ ∂L/∂x` and `∂L/∂d = Σ (t·∂L/∂x + ∂L/∂d|direct)`,
+    /// its encoding's input gradient ([`crate::field::HashGrid::encode_input_vjp`] of its row of
+    /// `d_encoding`) to `∂L/∂x`; then `∂L/∂o = Σ ∂L/∂x` and `∂L/∂d = Σ (t·∂L/∂x + ∂L/∂d|direct)`,
     /// the direct part through the colour network's direction encoding and NeuS's `cos(d, n)`.
     pub(super) fn ray_backward<T: Real>(
         &self,
@@ -38,23 +38,19 @@ impl NeusModel {
             for _ in ctx.samples.range(r) {
                 let (x, taps) = (sc.points[i], sc.tap_points[i]);
                 let (rows, _) = tap_rows(i, n, d, &sc.tap_off, &sc.tap_sides);
-                let skip: [bool; 7] = std::array::from_fn(|q| q > 0 && rows[q] == spare);
-                let gps = self.grid.encode_fd_input_vjp(
-                    p.hash,
-                    x,
-                    taps,
-                    c.radius,
-                    c.active,
-                    &sc.d_encoding,
-                    &rows,
-                    &skip,
-                );
                 let mut gx = [T::ZERO; 3];
-                for (q, gp) in gps.iter().enumerate() {
-                    if skip[q] {
+                for (q, &row) in rows.iter().enumerate() {
+                    if q > 0 && row == spare {
                         continue;
                     }
                     let pt = fd_point(x, taps, q);
+                    let gp = self.grid.encode_input_vjp(
+                        p.hash,
+                        pt,
+                        c.radius,
+                        c.active,
+                        &sc.d_encoding[row..row + d],
+                    );
                     // A tap clamped to the box's face stays there when the sample moves along
                     // the tap's axis.
                     let pinned = (q > 0)
