@@ -64,7 +64,12 @@ fn refined_poses_are_written_measured_and_resumed() {
     let again = neus_aug::import::perturb::perturb_scene(&scene, &HALF_DEGREE_3MM, 1).unwrap_err();
     assert!(again.to_string().contains("perturbed already"), "{again}");
 
-    let cfg = write_config(tmp.path(), 24, "[train.pose_refine]\nenabled = true\n");
+    // With the focal learned too, so that its state goes through the checkpoint as well.
+    let cfg = write_config(
+        tmp.path(),
+        24,
+        "[train.pose_refine]\nenabled = true\nfocal = true\n",
+    );
     let full = tmp.path().join("full");
     ok(&reconstruct(&scene, &cfg, &full, &[]));
     let text = std::fs::read_to_string(full.join("config.toml")).unwrap();
@@ -73,6 +78,7 @@ fn refined_poses_are_written_measured_and_resumed() {
         serde_json::from_str(&std::fs::read_to_string(full.join("metrics.json")).unwrap()).unwrap();
     let pr = &m["train"]["pose_refine"];
     assert_eq!(pr["views"], 7, "{pr}");
+    assert_eq!(pr["focal_scale"].as_array().map(Vec::len), Some(1), "{pr}");
     assert!(pr["mean_rotation_deg"].as_f64().unwrap() > 0.0, "{pr}");
     let truth = &pr["truth"];
     assert!(
