@@ -185,7 +185,13 @@ fn refinement_recovers_part_of_a_known_perturbation() {
 #[test]
 fn the_learned_focal_moves_towards_the_truth() {
     let tmp = tempfile::tempdir().unwrap();
-    let m = perturbed_run(tmp.path(), "0,0,5", "focal = true\nfocal_lr = 3e-3\n");
+    // Every ray: with one in four (the default) the weak signal drifts the focal the other way
+    // on this small scene (5 % → 5.27 %).
+    let m = perturbed_run(
+        tmp.path(),
+        "0,0,5",
+        "focal = true\nfocal_lr = 3e-3\nray_every = 1\n",
+    );
     let pr = &m["train"]["pose_refine"];
     let scales = pr["focal_scale"].as_array().expect("focal_scale").clone();
     assert_eq!(scales.len(), 1, "one camera model: {pr}");

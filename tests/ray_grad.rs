@@ -13,7 +13,7 @@
 mod field_common;
 
 use field_common::{perturbed_params, seed, tiny_config, Batch};
-use neus_aug::render::{ray_grad, ModelConfig, NeusModel, RayGradCell};
+use neus_aug::render::{mark_ray_grad, ray_grad, ModelConfig, NeusModel, RayGradCell};
 use neus_aug::train::{StepSinks, TrainStep};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -183,4 +183,53 @@ fn ray_gradient_cells_of_the_wrong_length_are_refused() {
         )
         .unwrap_err();
     assert!(err.to_string().contains("ray_grads"), "{err}");
+}
+
+/// Cells marked as not wanted (`mark_ray_grad(cell, false)`) come back zero, the others with
+/// the bits every-ray differentiation gives them, and the parameters' gradient is unchanged.
+#[test]
+fn unwanted_ray_gradients_are_zero_and_the_others_unchanged() {
+    let model = NeusModel::new(tiny_config()).unwrap();
+    let p = perturbed_params(&model, seed());
+    let b = inside_rays(16, seed() + 5);
+    let sched = model.config.schedule(40);
+    let run = |wanted: &dyn Fn(usize) -> bool| {
+        let c = cells(16);
+        for (r, cell) in c.iter().enumerate() {
+            mark_ray_grad(cell, wanted(r));
+        }
+        let mut g = vec![0.0f32; p.len()];
+        model
+            .train_step_recording(
+                &p,
+                &mut g,
+                &b.rays(),
+                &b.targets(),
+                sched,
+                None,
+                7,
+                StepSinks {
+                    ray_errors: None,
+                    ray_grads: Some(&c),
+                },
+            )
+            .unwrap();
+        (c.iter().map(ray_grad).collect::<Vec<_>>(), g)
+    };
+    let (all, g_all) = run(&|_| true);
+    let (some, g_some) = run(&|r| r % 3 == 0);
+    assert!(g_all
+        .iter()
+        .zip(&g_some)
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    let mut nonzero = 0;
+    for r in 0..16 {
+        if r % 3 == 0 {
+            assert_eq!(some[r], all[r], "ray {r}");
+            nonzero += usize::from(all[r].0.iter().any(|&v| v != 0.0));
+        } else {
+            assert_eq!(some[r], ([0.0; 3], [0.0; 3]), "ray {r}");
+        }
+    }
+    assert!(nonzero >= 3, "the wanted rays have gradients");
 }

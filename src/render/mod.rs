@@ -30,8 +30,8 @@ pub use config::{
     BackgroundConfig, BackgroundKind, LossConfig, MaskBce, ModelConfig, RenderConfig,
 };
 pub use model::{
-    ray_grad, BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch, RayGradCell,
-    RenderOutput,
+    mark_ray_grad, ray_grad, BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch,
+    RayGradCell, RenderOutput, RAY_GRAD_SKIP,
 };
 pub use occupancy::{OccupancyConfig, OccupancyGrid};
 pub use ray_loss::{BatchCounts, RayLoss, SampleWeights};

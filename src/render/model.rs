@@ -28,8 +28,8 @@ use super::alpha::{inv_s_from_variance, neus_alpha};
 use super::background::{background_color, BackgroundSamples, BackgroundScratch};
 pub(super) use super::neus::RayResult;
 pub use super::neus::{
-    ray_grad, BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch, RayGradCell,
-    RenderOutput,
+    mark_ray_grad, ray_grad, BackwardOutput, ModelError, NeusModel, PhaseTimes, RayBatch,
+    RayGradCell, RenderOutput, RAY_GRAD_SKIP,
 };
 use super::occupancy::OccupancyGrid;
 use super::ray_loss::{BatchCounts, RayLoss};

@@ -36,7 +36,18 @@ pub struct RayBatch<'a> {
 
 /// `[n]` per-ray gradient cells of [`NeusModel::forward_backward_rays`]: `∂L/∂o` (3) then
 /// `∂L/∂d` (3), f64 bits, each written once by the chunk that holds the ray (normalised space).
+/// A cell whose first slot holds [`RAY_GRAD_SKIP`] when the step starts is not computed: its
+/// ray's gradient is written as zero (a caller that needs only some rays' gradients).
 pub type RayGradCell = [std::sync::atomic::AtomicU64; 6];
+
+/// The mark of a [`RayGradCell`] whose gradient is not wanted: a NaN payload no gradient takes.
+pub const RAY_GRAD_SKIP: u64 = 0x7ff8_dead_beef_0001;
+
+/// Marks `cell` as wanted (zero) or not ([`RAY_GRAD_SKIP`]) before a step.
+pub fn mark_ray_grad(cell: &RayGradCell, wanted: bool) {
+    let first = if wanted { 0 } else { RAY_GRAD_SKIP };
+    cell[0].store(first, std::sync::atomic::Ordering::Relaxed);
+}
 
 /// The gradient a [`RayGradCell`] holds: `(∂L/∂o, ∂L/∂d)`.
 pub fn ray_grad(cell: &RayGradCell) -> ([f64; 3], [f64; 3]) {

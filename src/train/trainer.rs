@@ -247,7 +247,8 @@ impl<'a> Trainer<'a> {
                     )));
                 }
                 let b = &mut self.batch;
-                r.correct(ps, &b.views, &mut b.origins, &mut b.dirs);
+                let when = (step, self.config.iterations);
+                r.correct(ps, &b.views, &mut b.origins, &mut b.dirs, when);
                 true
             }
             (None, None) => false,

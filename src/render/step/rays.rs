@@ -4,7 +4,7 @@
 // Numeric kernels index several parallel arrays with one loop variable.
 #![allow(clippy::needless_range_loop)]
 
-use super::super::neus::NeusModel;
+use super::super::neus::{NeusModel, RAY_GRAD_SKIP};
 use super::super::workspace::{tap_rows, Groups, Scratch};
 use super::{Chunk, StepCtx};
 use crate::field::hashgrid::fd_point;
@@ -35,7 +35,16 @@ impl NeusModel {
         let mut i = 0;
         for r in c.r0..c.r1 {
             let mut acc = [0.0f64; 6];
-            for _ in ctx.samples.range(r) {
+            let range = ctx.samples.range(r);
+            if out[r][0].load(std::sync::atomic::Ordering::Relaxed) == RAY_GRAD_SKIP {
+                // Not wanted: written as zero, its samples passed over.
+                i += range.len();
+                for cell in &out[r] {
+                    cell.store(0f64.to_bits(), std::sync::atomic::Ordering::Relaxed);
+                }
+                continue;
+            }
+            for _ in range {
                 let (x, taps) = (sc.points[i], sc.tap_points[i]);
                 let (rows, _) = tap_rows(i, n, d, &sc.tap_off, &sc.tap_sides);
                 let mut gx = [T::ZERO; 3];
