@@ -140,23 +140,19 @@ pub fn save(
         }
     }
     if let Some(ps) = &state.pose {
-        let rows = ps.to_rows();
-        let bytes = rows.iter().flat_map(|x| x.to_le_bytes()).collect();
-        owned.push((
-            POSE_TENSOR.into(),
-            vec![rows.len() / 18, 18],
-            Dtype::F64,
-            bytes,
-        ));
-        if !ps.focal.is_empty() {
-            let rows = ps.focal_rows();
+        // f64 rows of `width` values each.
+        let mut push_rows = |name: &str, rows: Vec<f64>, width: usize| {
             let bytes = rows.iter().flat_map(|x| x.to_le_bytes()).collect();
             owned.push((
-                FOCAL_TENSOR.into(),
-                vec![rows.len() / 3, 3],
+                name.into(),
+                vec![rows.len() / width, width],
                 Dtype::F64,
                 bytes,
             ));
+        };
+        push_rows(POSE_TENSOR, ps.to_rows(), 18);
+        if !ps.focal.is_empty() {
+            push_rows(FOCAL_TENSOR, ps.focal_rows(), 3);
         }
     }
     let views: Vec<(String, TensorView)> = owned

@@ -404,8 +404,19 @@ impl PoseRefiner {
         self.grads.iter_mut().for_each(|g| *g = [0.0; 6]);
         self.focal_grads.iter_mut().for_each(|g| *g = 0.0);
         let mut finite = true;
+        // Each view's R(ω)ᵀ, for the focal's chain (computed once per view, not per ray).
+        let rot_t: Vec<Matrix3<f64>> = if self.focal_grads.is_empty() {
+            Vec::new()
+        } else {
+            let r = state.corrections.iter();
+            r.map(|p| exp_so3(&p.omega).transpose()).collect()
+        };
         for (i, &v) in views.iter().enumerate() {
             let (go, gd) = ray_grad(&self.cells[i]);
+            if go.iter().chain(&gd).all(|&x| x == 0.0) {
+                // A ray left out (`ray_every`) or without samples adds nothing.
+                continue;
+            }
             let v = v as usize;
             let (c, gd) = (&self.c2w[v], Vector3::from(gd));
             let d = Vector3::from(self.dirs[i].map(f64::from));
@@ -422,8 +433,7 @@ impl PoseRefiner {
             }
             if let Some(fg) = self.focal_grads.get_mut(self.model[v]) {
                 let phi = state.focal[self.model[v]][0];
-                let rot = exp_so3(&state.corrections[v].omega);
-                let g_local = rot.transpose() * (c.transpose() * gd);
+                let g_local = rot_t[v] * (c.transpose() * gd);
                 *fg += focal_backward(phi, &(c.transpose() * d), &g_local);
             }
             finite &= go.iter().all(|x| x.is_finite()) && gd.iter().all(|x| x.is_finite());
