@@ -460,7 +460,11 @@ fn carve_gradient_matches_central_differences() {
             t: 0.1 * i as f64,
             t_b: 0.1 * i as f64 + 0.2,
             free: (0..3 + i).map(|_| pick(&p)).collect(),
+            // Some spans lost points to the other views' confirmation.
+            span: 3 + i + i % 2,
             surface: pick(&p).0,
+            // One ray's depth found no other view to agree with it.
+            pull: i != 2,
         })
         .collect();
     let (weight, surface_weight) = (0.7, 0.5);

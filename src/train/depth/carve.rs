@@ -16,12 +16,19 @@ pub struct CarvedRay {
     pub t_b: f64,
     /// The carved span's points and the SDF the hinge asks for at each.
     pub free: Vec<([f64; 3], f64)>,
+    /// Points the span held before other views confirmed them (`DepthConfig::confirm_views`;
+    /// `free.len()` without): the hinge's mean over the ray divides by it, so points left out
+    /// do not make the others pull harder.
+    pub span: usize,
     /// The point at `t_b`.
     pub surface: [f64; 3],
+    /// Whether the surface term applies at it (other views agree with the depth; always
+    /// without `DepthConfig::confirm_views`).
+    pub pull: bool,
 }
 
 /// The loss on fixed points (the plan's positions are held): `L = weight · mean over rays of
-/// (mean over the ray's free points of max(0, τ − f) + surface_weight·|f(x_b)|)`; `∂L/∂θ` added into `grads` (SDF network and
+/// (sum over the ray's free points of max(0, τ − f) / span + surface_weight·|f(x_b)|)`; `∂L/∂θ` added into `grads` (SDF network and
 /// hash grid only). `sdf` evaluates the field at points in the precision of `params`. Returns
 /// `L` (0 for an empty plan).
 #[allow(clippy::too_many_arguments)]
@@ -49,7 +56,7 @@ pub fn carve_loss_grad<T: Real>(
     let mut wts = Vec::with_capacity(pts.len());
     let mut i = 0;
     for c in plan {
-        let m = w / c.free.len().max(1) as f64;
+        let m = w / c.span.max(1) as f64;
         for &(_, tau) in &c.free {
             let fv = f[i];
             i += 1;
@@ -62,7 +69,11 @@ pub fn carve_loss_grad<T: Real>(
         }
         let fv = f[i];
         i += 1;
-        let ms = w * surface_weight as f64;
+        let ms = if c.pull {
+            w * surface_weight as f64
+        } else {
+            0.0
+        };
         loss += ms * fv.abs();
         wts.push(T::from_f64(ms * fv.signum()));
     }

@@ -10,7 +10,10 @@
 //! pulled to `f = 0` (the sparse-point SDF loss of Geo-NeuS, Fu et al., NeurIPS 2022, §3.2) with
 //! `surface_weight`. `L = weight · mean over the rays of (mean hinge +
 //! surface_weight·|f(x(t_d))|)`: [`carve_loss_grad`], whose gradient a finite-difference test
-//! checks (`tests/field_grad.rs`). Distances are in the normalised frame.
+//! checks (`tests/field_grad.rs`). Distances are in the normalised frame. With
+//! `confirm_views > 0` a span point is carved only where other views' measured depths see past
+//! it too (the mean still divides by the whole span), and the surface is pulled only to depths
+//! other views' measured depths agree with.
 //!
 //! What it costs: the stereo once, when the prior turns on (a few tens of seconds for 46 views
 //! of 400 × 300 on 2 cores), and a surface search of `rays` rays per step.
@@ -53,11 +56,28 @@ pub struct DepthConfig {
     pub march_samples: usize,
     /// Illinois refinement steps of each bracketed crossing (6).
     pub refine: usize,
+    /// Other views that must confirm a point of the free span before it is carved (0: off,
+    /// every point is carved). A view confirms a point when the point projects inside its
+    /// image onto a pixel whose measured depth (one the consistency check kept, not a fill's)
+    /// lies more than `margin` beyond the point's distance from that camera: the view sees
+    /// past it. This is the free-space support of visibility-based fusion (Merrell et al.,
+    /// ICCV 2007, §4). One view's depth lying behind a thin wall then cannot tunnel through
+    /// the wall, whose inside no other view sees past. Likewise the surface term pulls the
+    /// field to zero at the depth only where as many other views' measured depths lie within
+    /// `margin` of it: a lone depth inside the material would grow a bubble there. Left out of `config.toml` at 0, so
+    /// the configurations (and their hashes) of runs made before the key existed still match.
+    #[serde(skip_serializing_if = "off")]
+    pub confirm_views: usize,
     /// The stereo.
     pub mvs: MvsConfig,
     /// The automatic switch: with `weight` 0, whether a check part-way through the run turns
     /// the prior on ([`super::depth_auto`]).
     pub auto: super::depth_auto::DepthAutoConfig,
+}
+
+/// Whether an opt-in count is 0 (off).
+fn off(n: &usize) -> bool {
+    *n == 0
 }
 
 impl Default for DepthConfig {
@@ -72,6 +92,7 @@ impl Default for DepthConfig {
             margin: 0.0125,
             march_samples: 128,
             refine: 6,
+            confirm_views: 0,
             mvs: MvsConfig::default(),
             auto: Default::default(),
         }
@@ -126,6 +147,12 @@ impl DepthConfig {
                 self.march_samples >= 2,
                 &self.march_samples,
                 "must be at least 2",
+            ),
+            c(
+                "confirm_views",
+                self.confirm_views <= 64,
+                &self.confirm_views,
+                "must be at most 64 (0: off)",
             ),
         ];
         if let Some((key, _, value, why)) = checks.into_iter().find(|c| !c.1) {
@@ -194,12 +221,12 @@ impl DepthPrior {
         rays: &[(usize, [u32; 2])],
     ) -> (DepthStep, Vec<CarvedRay>) {
         let cfg = &self.cfg;
-        let with: Vec<(Line, f64)> = rays
+        let with: Vec<(Line, f64, usize)> = rays
             .iter()
             .filter_map(|&(v, [x, y])| {
                 let td = self.maps.get(v, x, y)?;
                 let (o, d) = self.cameras[v].ray(x as f64 + 0.5, y as f64 + 0.5);
-                Some(((o.into(), d.into()), td))
+                Some(((o.into(), d.into()), td, v))
             })
             .collect();
         let lines: Vec<Line> = with.iter().map(|w| w.0).collect();
@@ -208,7 +235,7 @@ impl DepthPrior {
         let plan: Vec<CarvedRay> = with
             .iter()
             .zip(&hits)
-            .map(|(&((o, d), td), hit)| {
+            .map(|(&((o, d), td, v), hit)| {
                 let at = |s: f64| [0, 1, 2].map(|q| o[q] + s * d[q]);
                 let t0 = hit.as_ref().map_or(td, |h| h.t);
                 let mut free = Vec::new();
@@ -217,11 +244,21 @@ impl DepthPrior {
                     free.push((at(s), tau.min(0.5 * (td - s))));
                     s += sp;
                 }
+                let span = free.len();
+                let surface = at(td);
+                let mut pull = true;
+                if cfg.confirm_views > 0 {
+                    // Seen past by another view: free. Seen at (within `margin`): surface.
+                    free.retain(|(x, _)| self.confirmed(v, x, |tj, r| tj > r + mg));
+                    pull = self.confirmed(v, &surface, |tj, r| (tj - r).abs() <= mg);
+                }
                 CarvedRay {
                     t: t0,
                     t_b: td,
                     free,
-                    surface: at(td),
+                    span,
+                    surface,
+                    pull,
                 }
             })
             .collect();
@@ -232,6 +269,35 @@ impl DepthPrior {
             loss: 0.0,
         };
         (step, plan)
+    }
+
+    /// Whether at least `confirm_views` training views other than `view` confirm the point `x`
+    /// (normalised frame): `agrees(t_j, r)` holds for the measured depth `t_j` of the pixel
+    /// the point projects to and the point's distance `r = |x − C_j|`. Fills' depths do not
+    /// count; they are the ones most often behind the truth.
+    fn confirmed(&self, view: usize, x: &[f64; 3], agrees: impl Fn(f64, f64) -> bool) -> bool {
+        let p = nalgebra::Vector3::from(*x);
+        let mut seen = 0;
+        for (j, cam) in self.cameras.iter().enumerate() {
+            if j == view {
+                continue;
+            }
+            let Some((px, py)) = crate::scene::camera::pixel_of(cam, &p) else {
+                continue;
+            };
+            let k = py * self.maps.width[j] + px;
+            if self.maps.filled[j][k] || self.maps.hole_filled[j][k] {
+                continue;
+            }
+            let tj = self.maps.t[j][k];
+            if tj.is_finite() && agrees(tj as f64, (p - cam.center).norm()) {
+                seen += 1;
+                if seen >= self.cfg.confirm_views {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// The loss on `plan` at the weight `weight` ([`carve_loss_grad`] with
@@ -370,6 +436,80 @@ mod tests {
         assert!(plan
             .iter()
             .all(|c| c.free.is_empty() && (c.t - c.t_b).abs() < 1e-4));
+    }
+
+    /// Spurious handles through thin walls: one view's depth lies behind a thin wall (the
+    /// stereo matched the next tooth of a gear, or a hole fill took the far side), while the
+    /// other views' measured depths see the wall. Without confirmation the plan carves the
+    /// wall's inside along that ray, a tunnel; with `confirm_views = 1` it carves nothing
+    /// there, nor pulls the surface to the wrong depth, and a false sheet in front of the
+    /// surface, which the other views see past, is still carved. Fills' depths do not confirm.
+    #[test]
+    fn a_depth_behind_a_thin_wall_carves_the_wall_only_without_confirmation() {
+        let cfg = |confirm_views| DepthConfig {
+            weight: 1.0,
+            confirm_views,
+            ..Default::default()
+        };
+        // The wall: the slab −0.06 ≤ z ≤ 0, whose top is the plane every depth map sees.
+        let wall = |pts: &[[f64; 3]]| {
+            pts.iter()
+                .map(|x| (x[2] + 0.03).abs() - 0.03)
+                .collect::<Vec<_>>()
+        };
+        let rays: Vec<(usize, [u32; 2])> = (0..6).map(|i| (0, [20 + 9 * i, 24 + 6 * i])).collect();
+        let inside = |plan: &[CarvedRay]| {
+            plan.iter()
+                .flat_map(|c| &c.free)
+                .filter(|(x, _)| x[2] < -0.005 && x[2] > -0.055)
+                .count()
+        };
+        let behind = |p: &mut DepthPrior| {
+            for &(v, [x, y]) in &rays {
+                p.maps.t[v][y as usize * p.maps.width[v] + x as usize] += 0.3;
+            }
+        };
+        let (mut today, _) = plane_prior(cfg(0));
+        behind(&mut today);
+        let (out, plan) = today.plan(3.0, &wall, 1e-5, &rays);
+        assert_eq!(
+            out.carved, 6,
+            "every wrong depth carves without confirmation"
+        );
+        assert!(
+            inside(&plan) >= 6 * 8,
+            "{} points inside the wall",
+            inside(&plan)
+        );
+
+        let (mut confirmed, _) = plane_prior(cfg(1));
+        behind(&mut confirmed);
+        let (out, plan) = confirmed.plan(3.0, &wall, 1e-5, &rays);
+        assert_eq!(inside(&plan), 0, "no other view sees into the wall");
+        assert_eq!(out.with_depth, 6);
+        for c in &plan {
+            assert!(c.span > c.free.len(), "{} of {}", c.free.len(), c.span);
+            assert!(!c.pull, "no other view agrees with a depth behind the wall");
+        }
+        assert!(today.plan(3.0, &wall, 1e-5, &rays).1.iter().all(|c| c.pull));
+
+        // A false sheet at z = 0.4 over right depths: the other views see past its span.
+        let sheet = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2] - 0.4).collect::<Vec<_>>();
+        let (p, _) = plane_prior(cfg(1));
+        let (out, plan) = p.plan(3.0, &sheet, 1e-5, &rays);
+        assert_eq!(out.carved, 6);
+        let (kept, span) = plan
+            .iter()
+            .fold((0, 0), |(k, s), c| (k + c.free.len(), s + c.span));
+        assert!(kept * 10 >= span * 9, "{kept} of {span} confirmed");
+        assert!(plan.iter().all(|c| c.pull), "right depths are pulled to");
+        // ... unless the other views' depths all came from a fill.
+        let (mut filled, _) = plane_prior(cfg(1));
+        for v in 1..filled.maps.hole_filled.len() {
+            filled.maps.hole_filled[v].fill(true);
+        }
+        let (out, _) = filled.plan(3.0, &sheet, 1e-5, &rays);
+        assert_eq!(out.carved, 0, "a fill's depth confirms nothing");
     }
 
     /// The camera centre of the ray behind `c` (every plan entry is one of `rays` with a depth).
