@@ -495,8 +495,9 @@ fn carve_gradient_matches_central_differences() {
                 .iter()
                 .map(|&(x, tau)| (tau - value(&p, x)).max(0.0))
                 .sum::<f64>()
-                / c.free.len() as f64;
-            0.7 * (hinge + 0.5 * value(&p, c.surface).abs()) / plan.len() as f64
+                / c.span as f64;
+            let pull = if c.pull { 0.5 } else { 0.0 };
+            0.7 * (hinge + pull * value(&p, c.surface).abs()) / plan.len() as f64
         })
         .sum();
     assert!(
