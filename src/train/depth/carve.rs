@@ -28,9 +28,9 @@ pub struct CarvedRay {
 }
 
 /// The loss on fixed points (the plan's positions are held): `L = weight · mean over rays of
-/// (sum over the ray's free points of max(0, τ − f) / span + surface_weight·|f(x_b)|)`; `∂L/∂θ` added into `grads` (SDF network and
-/// hash grid only). `sdf` evaluates the field at points in the precision of `params`. Returns
-/// `L` (0 for an empty plan).
+/// (sum over the ray's free points of max(0, τ − f) / span + [pull]·surface_weight·|f(x_b)|)`;
+/// `∂L/∂θ` added into `grads` (SDF network and hash grid only). `sdf` evaluates the field at
+/// points in the precision of `params`. Returns `L` (0 for an empty plan).
 #[allow(clippy::too_many_arguments)]
 pub fn carve_loss_grad<T: Real>(
     weight: f32,
