@@ -557,6 +557,19 @@ mod tests {
         assert_eq!(bad(&|c| c.margin = -1.0), key("train.depth.margin"));
         assert_eq!(bad(&|c| c.mvs.top_k = 5), key("train.depth.mvs.top_k"));
         assert_eq!(bad(&|c| c.mvs.planes = 1), key("train.depth.mvs.planes"));
+        assert_eq!(
+            bad(&|c| c.confirm_views = 65),
+            key("train.depth.confirm_views")
+        );
+        // The opt-in key is written only when on, so older configurations keep their hash.
+        let text = |n| {
+            toml::to_string(&DepthConfig {
+                confirm_views: n,
+                ..Default::default()
+            })
+            .unwrap()
+        };
+        assert!(!text(0).contains("confirm_views") && text(1).contains("confirm_views = 1"));
         type Mutate = fn(&mut DepthConfig);
         let cases: [(Mutate, &str); 12] = [
             (|c| c.mvs.min_consistent = 9, "min_consistent"),
