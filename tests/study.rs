@@ -741,6 +741,20 @@ fn pareto_and_reduced_reports_from_known_numbers() {
         "{md}"
     );
     assert!(to.join("chamfer_vs_views.png").is_file());
+    assert!(!to.join("chamfer_by_degradation.png").exists());
+
+    // A degraded grid draws one bar group per degradation beside the per-scene chart.
+    let ddir = tmp.path().join("degraded");
+    let dto = tmp.path().join("degraded-report");
+    let o = StudyOptions::new(Grid::Degraded);
+    let (plan, cfgs) = make_plan(&o, None, &ddir).unwrap();
+    fabricate(&ddir, &plan, &cfgs, |_| 2.0, |_| 10.0);
+    collect(&ddir, &dto).unwrap();
+    let png = std::fs::read(dto.join("chamfer_by_degradation.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    assert_ne!(png, std::fs::read(dto.join("chamfer.png")).unwrap());
+    let md = std::fs::read_to_string(dto.join("report.md")).unwrap();
+    assert!(md.contains("`chamfer_by_degradation.png`"), "{md}");
     // A reference front for a study that is not a pareto study is refused, not ignored.
     let err = neus_aug::study::collect_with_reference(&dir, &to, Some(&reference))
         .unwrap_err()

@@ -106,10 +106,26 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
             .map(|(m, e)| m + e.max(0.0))
             .fold(0.0f64, f64::max);
         let top = if top > 0.0 { top * 1.18 } else { 1.0 };
+        // Group names that do not fit their slot side by side are drawn upright (reading bottom
+        // to top), with a label band as deep as the longest name.
+        let label_font = (FONT, 14).into_font();
+        let measure = TextStyle::from(label_font.clone());
+        let mut widest = 0u32;
+        for g in &b.groups {
+            let (w, _) = root.estimate_text_size(g, &measure).map_err(s)?;
+            widest = widest.max(w);
+        }
+        let slot = (WIDTH - 70 - 2 * 16) as f64 / ng as f64;
+        let upright = widest as f64 > 0.95 * slot;
+        let label_band = if upright {
+            (widest + 16).min(HEIGHT / 3)
+        } else {
+            44
+        };
         let mut chart = ChartBuilder::on(root)
             .caption(&b.title, (FONT, 22))
             .margin(16)
-            .x_label_area_size(44)
+            .x_label_area_size(label_band)
             .y_label_area_size(70)
             .build_cartesian_2d(-0.5f64..(ng as f64 - 0.5), 0f64..top)
             .map_err(s)?;
@@ -168,16 +184,26 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
         }
         legend(&mut chart)?;
         // Group names under the axis, centred on their groups.
-        let style = TextStyle::from((FONT, 14).into_font()).color(&BLACK).pos(
-            plotters::style::text_anchor::Pos::new(
-                plotters::style::text_anchor::HPos::Center,
-                plotters::style::text_anchor::VPos::Top,
-            ),
-        );
+        use plotters::style::text_anchor::{HPos, Pos, VPos};
+        let flat = TextStyle::from(label_font.clone())
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Top));
+        // Rotate270 maps the glyph's (x, y) to (y, -x) about the anchor: the text runs upwards
+        // from the anchor and lies to its right, so the anchor is the name's lower left corner.
+        let turned = TextStyle::from(label_font.transform(FontTransform::Rotate270))
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Left, VPos::Top));
         for (g, label) in b.groups.iter().enumerate() {
             let (px, py) = chart.backend_coord(&(g as f64, 0.0));
-            root.draw(&Text::new(label.as_str(), (px, py + 8), style.clone()))
-                .map_err(s)?;
+            if upright {
+                let (w, h) = root.estimate_text_size(label, &measure).map_err(s)?;
+                let at = (px - h as i32 / 2, py + 8 + w as i32);
+                root.draw(&Text::new(label.as_str(), at, turned.clone()))
+                    .map_err(s)?;
+            } else {
+                root.draw(&Text::new(label.as_str(), (px, py + 8), flat.clone()))
+                    .map_err(s)?;
+            }
         }
         Ok(())
     })
@@ -485,6 +511,41 @@ mod tests {
             .filter(|&(x, y)| img.get_pixel(x, y).0.iter().all(|&v| v < 100))
             .count();
         assert!(dark_in_caption > 5, "the caption was not drawn");
+    }
+
+    /// Dark pixels in the band `rows` below the plot (the group names).
+    fn dark_rows(img: &image::RgbImage, rows: std::ops::Range<u32>) -> usize {
+        (0..WIDTH)
+            .flat_map(|x| rows.clone().map(move |y| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y).0.iter().all(|&v| v < 100))
+            .count()
+    }
+
+    #[test]
+    fn group_names_too_wide_for_their_slot_are_drawn_upright() {
+        let b = |groups: Vec<String>| Bars {
+            title: "t".into(),
+            y_label: "mm".into(),
+            values: vec![vec![Some((1.0, 0.1))]; groups.len()],
+            groups,
+            series: vec!["baseline".into()],
+        };
+        let short = decode(&bar_chart("s.png", &b(vec!["a".into(), "b".into()])).unwrap());
+        let long: Vec<String> = (0..20)
+            .map(|i| format!("salt-pepper:0.05 · scene{i}"))
+            .collect();
+        let long = decode(&bar_chart("l.png", &b(long)).unwrap());
+        // Short names sit in one line just under the axis and leave the bottom of the image
+        // white; long ones run upright from the bottom margin up to the axis.
+        let bottom = HEIGHT - 34..HEIGHT - 16;
+        assert_eq!(dark_rows(&short, bottom.clone()), 0);
+        assert!(dark_rows(&long, bottom) > 20);
+        // Upright, the twenty names stand apart: a column between two of them is white.
+        let img = &long;
+        let gaps = (70..WIDTH - 16)
+            .filter(|&x| (HEIGHT - 100..HEIGHT - 20).all(|y| img.get_pixel(x, y).0[0] > 200))
+            .count();
+        assert!(gaps > 400, "{gaps} white columns under the axis");
     }
 
     #[test]

@@ -242,10 +242,10 @@ pub(super) fn report_md(
         } else {
             ", `chamfer.png`"
         },
-        if o.grid == Grid::Reduced {
-            ", `chamfer_vs_views.png`"
-        } else {
-            ""
+        match o.grid {
+            Grid::Reduced => ", `chamfer_vs_views.png`",
+            Grid::Degraded => ", `chamfer_by_degradation.png`",
+            _ => "",
         },
         if pareto.is_some() {
             ", `pareto.csv`, `pareto.png`"

@@ -10,6 +10,7 @@
 //! Outputs (in `DIR/report/` unless `--to`): `report.md` (the tables), `runs.csv` and
 //! `runs.json` (one row per collected run), `summary.json` (every aggregate and interval),
 //! `chamfer.png` (bars with ±1 std error bars), `chamfer_vs_views.png` (reduced),
+//! `chamfer_by_degradation.png` (degraded: one group per degradation, scene means),
 //! `pareto.csv` + `pareto.png` (pareto).
 //!
 //! One file per concern: `records` reads the run folders, `layout` arranges runs by
@@ -207,6 +208,35 @@ pub fn collect_with_reference(
                 .collect(),
         };
         put("chamfer.png", &plot::bar_chart("chamfer.png", &bars)?)?;
+    }
+    if o.grid == Grid::Degraded {
+        // One group per degradation: the scene mean (or the one scene), both arms.
+        let pick: Vec<&Row> = rows
+            .iter()
+            .filter(|r| r.scene.is_none() || lay.scenes.len() == 1)
+            .collect();
+        let bars = plot::Bars {
+            title: "degraded images: Chamfer per degradation (mean over scenes, ± pooled std over seeds)".into(),
+            y_label: "Chamfer acc + comp (mm)".into(),
+            groups: pick.iter().map(|r| r.condition.clone()).collect(),
+            series: lay.arms.iter().map(|a| arm_title(*a).to_string()).collect(),
+            values: pick
+                .iter()
+                .map(|r| {
+                    lay.arms
+                        .iter()
+                        .map(|&a| {
+                            lay.row_mean(r, a, m_chamfer)
+                                .map(|m| (m, lay.row_std(r, a, m_chamfer).unwrap_or(0.0)))
+                        })
+                        .collect()
+                })
+                .collect(),
+        };
+        put(
+            "chamfer_by_degradation.png",
+            &plot::bar_chart("chamfer_by_degradation.png", &bars)?,
+        )?;
     }
     if o.grid == Grid::Reduced {
         let series = lay
