@@ -755,6 +755,16 @@ fn pareto_and_reduced_reports_from_known_numbers() {
     assert_ne!(png, std::fs::read(dto.join("chamfer.png")).unwrap());
     let md = std::fs::read_to_string(dto.join("report.md")).unwrap();
     assert!(md.contains("`chamfer_by_degradation.png`"), "{md}");
+    // Each of the five degradations is judged against its row of the paper's table.
+    for paper in [
+        "2.36 / 2.18",
+        "2.01 / 1.90",
+        "3.34 / 2.85",
+        "2.68 / 2.39",
+        "4.54 / 3.91",
+    ] {
+        assert!(md.contains(paper), "the paper's {paper} is missing:\n{md}");
+    }
     // A reference front for a study that is not a pareto study is refused, not ignored.
     let err = neus_aug::study::collect_with_reference(&dir, &to, Some(&reference))
         .unwrap_err()

@@ -81,11 +81,21 @@ const PAPER_REDUCED: [(&str, f64, f64); 4] = [
 ];
 const PAPER_DEGRADED: [(&str, f64, f64); 5] = [
     ("gaussian", 2.36, 2.18),
-    ("motion_blur", 2.01, 1.90),
+    ("motion-blur", 2.01, 1.90),
     ("poisson", 3.34, 2.85),
-    ("salt_pepper", 2.68, 2.39),
+    ("salt-pepper", 2.68, 2.39),
     ("speckle", 4.54, 3.91),
 ];
+
+/// The key of `cond` in the paper's tables: a degradation's kind in its canonical spelling
+/// (`motion-blur:5` → `motion-blur`, whatever spelling the plan used), else the condition.
+fn paper_key(cond: &str) -> &str {
+    let kind = cond.split(':').next().unwrap_or(cond);
+    match kind.parse::<crate::augment::DegradationKind>() {
+        Ok(k) => k.name(),
+        Err(_) => cond,
+    }
+}
 
 /// "Against the paper" for the reduced and degraded grids: per condition, the paper's baseline
 /// and augmented figures and difference beside our pooled paired difference (IA − baseline over
@@ -113,10 +123,7 @@ pub(super) fn robustness_section(md: &mut String, lay: &Layout<'_>, degraded: bo
     let mut t = Vec::new();
     let mut verdicts = Vec::new();
     for cond in &lay.conditions {
-        let Some(&(_, pb, pa)) = table
-            .iter()
-            .find(|(k, _, _)| cond == k || cond.split(':').next() == Some(*k))
-        else {
+        let Some(&(_, pb, pa)) = table.iter().find(|(k, _, _)| paper_key(cond) == *k) else {
             continue;
         };
         let row = Row {
@@ -290,6 +297,30 @@ pub(super) fn paper_section(md: &mut String, lay: &Layout<'_>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every degradation a plan can hold finds its row of the paper's table, in any spelling
+    /// the command line accepts; a degradation left out would drop from the claim's verdict.
+    #[test]
+    fn every_degradation_finds_its_paper_row() {
+        use crate::augment::DegradationKind;
+        for k in DegradationKind::ALL {
+            for cond in [
+                format!("{}:{}", k.name(), k.default_q()),
+                format!("{}:1", k.name().replace('-', "_")),
+                k.name().to_uppercase(),
+            ] {
+                assert!(
+                    PAPER_DEGRADED
+                        .iter()
+                        .any(|(key, _, _)| paper_key(&cond) == *key),
+                    "{cond} has no row in the paper's table"
+                );
+            }
+        }
+        for (key, _, _) in PAPER_REDUCED {
+            assert_eq!(paper_key(key), key);
+        }
+    }
 
     #[test]
     fn verdicts_follow_the_interval() {
