@@ -16,14 +16,15 @@ pub struct CarvedRay {
     pub t_b: f64,
     /// The carved span's points and the SDF the hinge asks for at each.
     pub free: Vec<([f64; 3], f64)>,
-    /// Points the span held before other views confirmed them (`DepthConfig::confirm_views`;
-    /// `free.len()` without): the hinge's mean over the ray divides by it, so points left out
-    /// do not make the others pull harder.
+    /// Points the span held before other views confirmed or vetoed them
+    /// (`DepthConfig::confirm_views`, `DepthConfig::veto_band`; `free.len()` without either):
+    /// the hinge's mean over the ray divides by it, so points left out do not make the others
+    /// pull harder.
     pub span: usize,
     /// The point at `t_b`.
     pub surface: [f64; 3],
-    /// Whether the surface term applies at it (other views agree with the depth; always
-    /// without `DepthConfig::confirm_views`).
+    /// Whether the surface term applies at it (other views agree with the depth, and none sees
+    /// past it; always without `DepthConfig::confirm_views` and `DepthConfig::veto_band`).
     pub pull: bool,
 }
 

@@ -13,7 +13,9 @@
 //! checks (`tests/field_grad.rs`). Distances are in the normalised frame. With
 //! `confirm_views > 0` a span point is carved only where other views' measured depths see past
 //! it too (the mean still divides by the whole span), and the surface is pulled only to depths
-//! other views' measured depths agree with.
+//! other views' measured depths agree with. With `veto_band > 0` a span point is dropped only
+//! where another view's measured depth puts a surface just in front of it (the point is in a
+//! wall's material), and the surface is not pulled to a depth another view sees past.
 //!
 //! What it costs: the stereo once, when the prior turns on (a few tens of seconds for 46 views
 //! of 400 × 300 on 2 cores), and a surface search of `rays` rays per step.
@@ -71,6 +73,17 @@ pub struct DepthConfig {
     /// their hashes) of runs made before the key existed still match.
     #[serde(skip_serializing_if = "off")]
     pub confirm_views: usize,
+    /// Depth of the band behind another view's seen surface where the free span is not carved,
+    /// normalised units (0: off). The opposite test to `confirm_views`: a point is kept unless
+    /// some other view's measured depth lies between `veto_band` in front of the point and
+    /// `margin` behind it, that is, the point sits just behind a surface another view sees (in
+    /// the material of a wall). Likewise the surface is not pulled to a depth that another
+    /// view's measured depth sees past by more than `margin` (a free-space violation). Points
+    /// no other view measures, such as the inside of a cavity, stay carved. The two conflicts
+    /// are Merrell et al.'s occlusion and free-space violation (ICCV 2007, §4). Left out of
+    /// `config.toml` at 0.
+    #[serde(skip_serializing_if = "zero")]
+    pub veto_band: f32,
     /// The stereo.
     pub mvs: MvsConfig,
     /// The automatic switch: with `weight` 0, whether a check part-way through the run turns
@@ -81,6 +94,11 @@ pub struct DepthConfig {
 /// Whether an opt-in count is 0 (off).
 fn off(n: &usize) -> bool {
     *n == 0
+}
+
+/// Whether an opt-in length is 0 (off).
+fn zero(x: &f32) -> bool {
+    *x == 0.0
 }
 
 impl Default for DepthConfig {
@@ -96,6 +114,7 @@ impl Default for DepthConfig {
             march_samples: 128,
             refine: 6,
             confirm_views: 0,
+            veto_band: 0.0,
             mvs: MvsConfig::default(),
             auto: Default::default(),
         }
@@ -156,6 +175,12 @@ impl DepthConfig {
                 self.confirm_views <= 64,
                 &self.confirm_views,
                 "must be at most 64 (0: off)",
+            ),
+            c(
+                "veto_band",
+                nonneg(self.veto_band),
+                &self.veto_band,
+                "must be ≥ 0 (normalised units; 0: off)",
             ),
         ];
         if let Some((key, _, value, why)) = checks.into_iter().find(|c| !c.1) {
@@ -255,6 +280,14 @@ impl DepthPrior {
                     free.retain(|(x, _)| self.confirmed(v, x, |tj, r| tj > r + mg));
                     pull = self.confirmed(v, &surface, |tj, r| (tj - r).abs() <= mg);
                 }
+                if cfg.veto_band > 0.0 {
+                    // Just behind another view's seen surface: material. Seen past: free.
+                    let band = cfg.veto_band as f64;
+                    free.retain(|(x, _)| {
+                        !self.seen_by(v, x, 1, |tj, r| tj > r - band && tj <= r + mg)
+                    });
+                    pull = pull && !self.seen_by(v, &surface, 1, |tj, r| tj > r + mg);
+                }
                 CarvedRay {
                     t: t0,
                     t_b: td,
@@ -279,6 +312,18 @@ impl DepthPrior {
     /// the point projects to and the point's distance `r = |x − C_j|`. Fills' depths do not
     /// count; they are the ones most often behind the truth.
     fn confirmed(&self, view: usize, x: &[f64; 3], agrees: impl Fn(f64, f64) -> bool) -> bool {
+        self.seen_by(view, x, self.cfg.confirm_views, agrees)
+    }
+
+    /// Whether at least `need` training views other than `view` have a measured depth `t_j`
+    /// at the pixel `x` projects to for which `agrees(t_j, |x − C_j|)` holds.
+    fn seen_by(
+        &self,
+        view: usize,
+        x: &[f64; 3],
+        need: usize,
+        agrees: impl Fn(f64, f64) -> bool,
+    ) -> bool {
         let p = nalgebra::Vector3::from(*x);
         let mut seen = 0;
         for (j, cam) in self.cameras.iter().enumerate() {
@@ -295,7 +340,7 @@ impl DepthPrior {
             let tj = self.maps.t[j][k];
             if tj.is_finite() && agrees(tj as f64, (p - cam.center).norm()) {
                 seen += 1;
-                if seen >= self.cfg.confirm_views {
+                if seen >= need {
                     return true;
                 }
             }
@@ -519,6 +564,77 @@ mod tests {
         assert_eq!(out.carved, 0, "a fill's depth confirms nothing");
     }
 
+    /// The veto's distinction: the inside of a thin wall, just behind the surface the other
+    /// views see, is not carved; a hollow deeper than the band behind that surface (a cavity
+    /// under a lid, which no other view measures) still is; and a false sheet in front of right
+    /// depths is carved as without the veto. A depth the other views see past is not pulled to.
+    #[test]
+    fn the_veto_keeps_a_walls_inside_and_carves_the_hollow_behind_it() {
+        let cfg = |veto_band| DepthConfig {
+            weight: 1.0,
+            veto_band,
+            ..Default::default()
+        };
+        // The wall −0.06 ≤ z ≤ 0 over a hollow down to z = −0.3, where the depth lies.
+        let wall = |pts: &[[f64; 3]]| {
+            pts.iter()
+                .map(|x| (x[2] + 0.03).abs() - 0.03)
+                .collect::<Vec<_>>()
+        };
+        let rays: Vec<(usize, [u32; 2])> = (0..6).map(|i| (0, [20 + 9 * i, 24 + 6 * i])).collect();
+        let count = |plan: &[CarvedRay], lo: f64, hi: f64| {
+            plan.iter()
+                .flat_map(|c| &c.free)
+                .filter(|(x, _)| x[2] > lo && x[2] < hi)
+                .count()
+        };
+        let behind = |p: &mut DepthPrior| {
+            for &(v, [x, y]) in &rays {
+                p.maps.t[v][y as usize * p.maps.width[v] + x as usize] += 0.3;
+            }
+        };
+        let (mut off, _) = plane_prior(cfg(0.0));
+        behind(&mut off);
+        let (_, plan_off) = off.plan(3.0, &wall, 1e-5, &rays);
+        let (mut on, _) = plane_prior(cfg(0.1));
+        behind(&mut on);
+        let (out, plan) = on.plan(3.0, &wall, 1e-5, &rays);
+        assert_eq!(out.carved, 6);
+        assert!(count(&plan_off, -0.055, -0.005) >= 6 * 8);
+        assert_eq!(count(&plan, -0.055, -0.005), 0, "the wall's inside is kept");
+        // Deeper than the band behind the seen top (z = 0), along the other views' oblique
+        // rays: the hollow stays carved, point for point as without the veto.
+        let deep = count(&plan_off, -1.0, -0.15);
+        assert!(deep >= 6 * 8, "{deep}");
+        assert_eq!(count(&plan, -1.0, -0.15), deep);
+        // The wrong depth lies in the hollow, where no other view sees past it: still pulled.
+        assert!(plan.iter().all(|c| c.pull));
+        // Right depths under a false sheet at z = 0.4: carved as without the veto, and pulled.
+        let sheet = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2] - 0.4).collect::<Vec<_>>();
+        let (p, _) = plane_prior(cfg(0.1));
+        let (q, _) = plane_prior(cfg(0.0));
+        let (a, b) = (
+            p.plan(3.0, &sheet, 1e-5, &rays).1,
+            q.plan(3.0, &sheet, 1e-5, &rays).1,
+        );
+        let kept: usize = a.iter().map(|c| c.free.len()).sum();
+        let all: usize = b.iter().map(|c| c.free.len()).sum();
+        assert!(kept * 10 >= all * 9, "{kept} of {all}");
+        assert!(a.iter().all(|c| c.pull));
+        // A depth in front of the plane the other views measure (a bubble in the air): the
+        // others see past it, so the surface is not pulled there.
+        let (mut early, _) = plane_prior(cfg(0.1));
+        for &(v, [x, y]) in &rays {
+            early.maps.t[v][y as usize * early.maps.width[v] + x as usize] -= 0.2;
+        }
+        let truth = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2]).collect::<Vec<_>>();
+        assert!(early
+            .plan(3.0, &truth, 1e-5, &rays)
+            .1
+            .iter()
+            .all(|c| !c.pull));
+    }
+
     /// The camera centre of the ray behind `c` (every plan entry is one of `rays` with a depth).
     fn plan_origin(
         cams: &[Camera],
@@ -570,6 +686,19 @@ mod tests {
             .unwrap()
         };
         assert!(!text(0).contains("confirm_views") && text(1).contains("confirm_views = 1"));
+        assert_eq!(bad(&|c| c.veto_band = -0.1), key("train.depth.veto_band"));
+        assert_eq!(
+            bad(&|c| c.veto_band = f32::NAN),
+            key("train.depth.veto_band")
+        );
+        let band = |b| {
+            toml::to_string(&DepthConfig {
+                veto_band: b,
+                ..Default::default()
+            })
+            .unwrap()
+        };
+        assert!(!band(0.0).contains("veto_band") && band(0.05).contains("veto_band = 0.05"));
         type Mutate = fn(&mut DepthConfig);
         let cases: [(Mutate, &str); 12] = [
             (|c| c.mvs.min_consistent = 9, "min_consistent"),
