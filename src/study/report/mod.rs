@@ -188,25 +188,30 @@ pub fn collect_with_reference(
     put("summary.json", format!("{json}\n").as_bytes())?;
 
     // Plots.
+    // Bars of the Chamfer of `pick`, one group per row (named by `name`), one bar per arm:
+    // the row's mean with its std over seeds.
+    let chamfer_bars = |title: String, pick: &[&Row], name: &dyn Fn(&Row) -> String| plot::Bars {
+        title,
+        y_label: "Chamfer acc + comp (mm)".into(),
+        groups: pick.iter().map(|r| name(r)).collect(),
+        series: lay.arms.iter().map(|a| arm_title(*a).to_string()).collect(),
+        values: pick
+            .iter()
+            .map(|r| {
+                lay.arms
+                    .iter()
+                    .map(|&a| {
+                        lay.row_mean(r, a, m_chamfer)
+                            .map(|m| (m, lay.row_std(r, a, m_chamfer).unwrap_or(0.0)))
+                    })
+                    .collect()
+            })
+            .collect(),
+    };
     if pareto.is_none() {
-        let bars = plot::Bars {
-            title: format!("{}: Chamfer distance (mean ± 1 std over seeds)", o.grid),
-            y_label: "Chamfer acc + comp (mm)".into(),
-            groups: rows.iter().map(|r| r.label.clone()).collect(),
-            series: lay.arms.iter().map(|a| arm_title(*a).to_string()).collect(),
-            values: rows
-                .iter()
-                .map(|r| {
-                    lay.arms
-                        .iter()
-                        .map(|&a| {
-                            lay.row_mean(r, a, m_chamfer)
-                                .map(|m| (m, lay.row_std(r, a, m_chamfer).unwrap_or(0.0)))
-                        })
-                        .collect()
-                })
-                .collect(),
-        };
+        let all: Vec<&Row> = rows.iter().collect();
+        let title = format!("{}: Chamfer distance (mean ± 1 std over seeds)", o.grid);
+        let bars = chamfer_bars(title, &all, &|r| r.label.clone());
         put("chamfer.png", &plot::bar_chart("chamfer.png", &bars)?)?;
     }
     if o.grid == Grid::Degraded {
@@ -215,24 +220,9 @@ pub fn collect_with_reference(
             .iter()
             .filter(|r| r.scene.is_none() || lay.scenes.len() == 1)
             .collect();
-        let bars = plot::Bars {
-            title: "degraded images: Chamfer per degradation (mean over scenes, ± pooled std over seeds)".into(),
-            y_label: "Chamfer acc + comp (mm)".into(),
-            groups: pick.iter().map(|r| r.condition.clone()).collect(),
-            series: lay.arms.iter().map(|a| arm_title(*a).to_string()).collect(),
-            values: pick
-                .iter()
-                .map(|r| {
-                    lay.arms
-                        .iter()
-                        .map(|&a| {
-                            lay.row_mean(r, a, m_chamfer)
-                                .map(|m| (m, lay.row_std(r, a, m_chamfer).unwrap_or(0.0)))
-                        })
-                        .collect()
-                })
-                .collect(),
-        };
+        let title = "degraded images: Chamfer per degradation \
+                     (mean over scenes, ± pooled std over seeds)";
+        let bars = chamfer_bars(title.into(), &pick, &|r| r.condition.clone());
         put(
             "chamfer_by_degradation.png",
             &plot::bar_chart("chamfer_by_degradation.png", &bars)?,

@@ -486,6 +486,32 @@ mod tests {
             .all(|c| c.free.is_empty() && (c.t - c.t_b).abs() < 1e-4));
     }
 
+    /// The wall of the thin-wall tests: the slab −0.06 ≤ z ≤ 0, whose top is the plane every
+    /// depth map of [`plane_prior`] sees.
+    fn slab(pts: &[[f64; 3]]) -> Vec<f64> {
+        pts.iter().map(|x| (x[2] + 0.03).abs() - 0.03).collect()
+    }
+
+    /// Six rays of view 0 across the image, all with a depth.
+    fn six_rays() -> Vec<(usize, [u32; 2])> {
+        (0..6).map(|i| (0, [20 + 9 * i, 24 + 6 * i])).collect()
+    }
+
+    /// Moves the depth of each of `rays` by `dt` (positive: behind the plane).
+    fn shift_depths(p: &mut DepthPrior, rays: &[(usize, [u32; 2])], dt: f32) {
+        for &(v, [x, y]) in rays {
+            p.maps.t[v][y as usize * p.maps.width[v] + x as usize] += dt;
+        }
+    }
+
+    /// Carved points of `plan` with `lo < z < hi`.
+    fn carved_between(plan: &[CarvedRay], lo: f64, hi: f64) -> usize {
+        plan.iter()
+            .flat_map(|c| &c.free)
+            .filter(|(x, _)| x[2] > lo && x[2] < hi)
+            .count()
+    }
+
     /// Spurious handles through thin walls: one view's depth lies behind a thin wall (the
     /// stereo matched the next tooth of a gear, or a hole fill took the far side), while the
     /// other views' measured depths see the wall. Without confirmation the plan carves the
@@ -499,24 +525,9 @@ mod tests {
             confirm_views,
             ..Default::default()
         };
-        // The wall: the slab −0.06 ≤ z ≤ 0, whose top is the plane every depth map sees.
-        let wall = |pts: &[[f64; 3]]| {
-            pts.iter()
-                .map(|x| (x[2] + 0.03).abs() - 0.03)
-                .collect::<Vec<_>>()
-        };
-        let rays: Vec<(usize, [u32; 2])> = (0..6).map(|i| (0, [20 + 9 * i, 24 + 6 * i])).collect();
-        let inside = |plan: &[CarvedRay]| {
-            plan.iter()
-                .flat_map(|c| &c.free)
-                .filter(|(x, _)| x[2] < -0.005 && x[2] > -0.055)
-                .count()
-        };
-        let behind = |p: &mut DepthPrior| {
-            for &(v, [x, y]) in &rays {
-                p.maps.t[v][y as usize * p.maps.width[v] + x as usize] += 0.3;
-            }
-        };
+        let (wall, rays) = (slab, six_rays());
+        let inside = |plan: &[CarvedRay]| carved_between(plan, -0.055, -0.005);
+        let behind = |p: &mut DepthPrior| shift_depths(p, &rays, 0.3);
         let (mut today, _) = plane_prior(cfg(0));
         behind(&mut today);
         let (out, plan) = today.plan(3.0, &wall, 1e-5, &rays);
@@ -575,24 +586,9 @@ mod tests {
             veto_band,
             ..Default::default()
         };
-        // The wall −0.06 ≤ z ≤ 0 over a hollow down to z = −0.3, where the depth lies.
-        let wall = |pts: &[[f64; 3]]| {
-            pts.iter()
-                .map(|x| (x[2] + 0.03).abs() - 0.03)
-                .collect::<Vec<_>>()
-        };
-        let rays: Vec<(usize, [u32; 2])> = (0..6).map(|i| (0, [20 + 9 * i, 24 + 6 * i])).collect();
-        let count = |plan: &[CarvedRay], lo: f64, hi: f64| {
-            plan.iter()
-                .flat_map(|c| &c.free)
-                .filter(|(x, _)| x[2] > lo && x[2] < hi)
-                .count()
-        };
-        let behind = |p: &mut DepthPrior| {
-            for &(v, [x, y]) in &rays {
-                p.maps.t[v][y as usize * p.maps.width[v] + x as usize] += 0.3;
-            }
-        };
+        // The wall over a hollow down to the depth, 0.3 behind the plane.
+        let (wall, rays, count) = (slab, six_rays(), carved_between);
+        let behind = |p: &mut DepthPrior| shift_depths(p, &rays, 0.3);
         let (mut off, _) = plane_prior(cfg(0.0));
         behind(&mut off);
         let (_, plan_off) = off.plan(3.0, &wall, 1e-5, &rays);
@@ -624,9 +620,7 @@ mod tests {
         // A depth in front of the plane the other views measure (a bubble in the air): the
         // others see past it, so the surface is not pulled there.
         let (mut early, _) = plane_prior(cfg(0.1));
-        for &(v, [x, y]) in &rays {
-            early.maps.t[v][y as usize * early.maps.width[v] + x as usize] -= 0.2;
-        }
+        shift_depths(&mut early, &rays, -0.2);
         let truth = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2]).collect::<Vec<_>>();
         assert!(early
             .plan(3.0, &truth, 1e-5, &rays)
