@@ -80,8 +80,9 @@ pub struct DepthConfig {
     /// the material of a wall). Likewise the surface is not pulled to a depth that another
     /// view's measured depth sees past by more than `margin` (a free-space violation). Points
     /// no other view measures, such as the inside of a cavity, stay carved. The two conflicts
-    /// are Merrell et al.'s occlusion and free-space violation (ICCV 2007, §4). Left out of
-    /// `config.toml` at 0.
+    /// are Merrell et al.'s occlusion and free-space violation (ICCV 2007, §4). Off by default:
+    /// measured so far on one seed of a gear and of the cup only (`docs/hard-shapes.md`). Left
+    /// out of `config.toml` at 0.
     #[serde(skip_serializing_if = "zero")]
     pub veto_band: f32,
     /// The stereo.
