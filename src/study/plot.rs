@@ -110,11 +110,12 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
         // to top), with a label band as deep as the longest name.
         let label_font = (FONT, 14).into_font();
         let measure = TextStyle::from(label_font.clone());
-        let mut widest = 0u32;
-        for g in &b.groups {
-            let (w, _) = root.estimate_text_size(g, &measure).map_err(s)?;
-            widest = widest.max(w);
-        }
+        let sizes = b
+            .groups
+            .iter()
+            .map(|g| root.estimate_text_size(g, &measure).map_err(s))
+            .collect::<Result<Vec<(u32, u32)>, String>>()?;
+        let widest = sizes.iter().map(|z| z.0).max().unwrap_or(0);
         let slot = (WIDTH - 70 - 2 * 16) as f64 / ng as f64;
         let upright = widest as f64 > 0.95 * slot;
         let label_band = if upright {
@@ -193,10 +194,9 @@ pub fn bar_chart(name: &str, b: &Bars) -> Result<Vec<u8>, StudyError> {
         let turned = TextStyle::from(label_font.transform(FontTransform::Rotate270))
             .color(&BLACK)
             .pos(Pos::new(HPos::Left, VPos::Top));
-        for (g, label) in b.groups.iter().enumerate() {
+        for (g, (label, &(w, h))) in b.groups.iter().zip(&sizes).enumerate() {
             let (px, py) = chart.backend_coord(&(g as f64, 0.0));
             if upright {
-                let (w, h) = root.estimate_text_size(label, &measure).map_err(s)?;
                 let at = (px - h as i32 / 2, py + 8 + w as i32);
                 root.draw(&Text::new(label.as_str(), at, turned.clone()))
                     .map_err(s)?;
@@ -506,14 +506,11 @@ mod tests {
         // anti-aliased glyphs) in the caption band.
         let c = colour(0);
         assert!(img.pixels().any(|p| p.0 == [c.0, c.1, c.2]));
-        let dark_in_caption = (0..WIDTH)
-            .flat_map(|x| (0..40).map(move |y| (x, y)))
-            .filter(|&(x, y)| img.get_pixel(x, y).0.iter().all(|&v| v < 100))
-            .count();
+        let dark_in_caption = dark_rows(&img, 0..40);
         assert!(dark_in_caption > 5, "the caption was not drawn");
     }
 
-    /// Dark pixels in the band `rows` below the plot (the group names).
+    /// Dark pixels (text) in the band `rows` of the image.
     fn dark_rows(img: &image::RgbImage, rows: std::ops::Range<u32>) -> usize {
         (0..WIDTH)
             .flat_map(|x| rows.clone().map(move |y| (x, y)))
