@@ -484,6 +484,43 @@ fn collect_on_known_numbers_gives_the_expected_tables() {
         serde_json::from_str(&std::fs::read_to_string(to.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["collected"], 18);
 
+    // A part of the study (`collect --scenes torus --seeds 2`): torus at seeds 0 and 1 only
+    // (baseline 3.0 and 3.1), reported as a study planned with those options.
+    let part = |scenes: Option<&[&str]>, seeds: Option<u32>| {
+        let opts = neus_aug::study::CollectOptions {
+            subset: neus_aug::study::Subset {
+                scenes: scenes.map(|l| l.iter().map(|s| s.to_string()).collect()),
+                seeds,
+            },
+            ..Default::default()
+        };
+        neus_aug::study::collect_with(&dir, &tmp.path().join("part"), &opts)
+    };
+    let c = part(Some(&["torus"]), Some(2)).unwrap();
+    assert_eq!((c.planned, c.collected), (6, 6));
+    let md = std::fs::read_to_string(tmp.path().join("part/report.md")).unwrap();
+    for s in [
+        "2 seed(s) per cell (0–1), scenes: torus.",
+        "--seeds 2 --scenes torus",
+        "| torus | *3.050* | 3.250 | **2.950** |",
+        "| torus | +0.200 [+0.200, +0.200] (n=2) | −0.100 [−0.100, −0.100] (n=2) |",
+    ] {
+        assert!(md.contains(s), "the part's report lacks {s:?}:\n{md}");
+    }
+    assert!(!md.contains("| blob |"), "{md}");
+    // An unknown scene, or seeds the study does not have, are refused by option.
+    let e = part(Some(&["torus", "nope"]), None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("--scenes") && e.contains("nope") && e.contains("blob"),
+        "{e}"
+    );
+    for n in [0, 4] {
+        let e = part(None, Some(n)).unwrap_err().to_string();
+        assert!(e.contains("--seeds") && e.contains("0..3"), "{e}");
+    }
+
     // A metrics.json from another training is refused.
     let m = run_dir(&dir, &plan.runs[4].id).join("metrics.json");
     let text = std::fs::read_to_string(&m).unwrap();
@@ -707,7 +744,15 @@ fn pareto_and_reduced_reports_from_known_numbers() {
     // Another study's front beside this one's: the plot changes, the tables do not.
     let reference = neus_aug::study::report::read_reference_front(&to, "old build").unwrap();
     let with = tmp.path().join("with-ref");
-    neus_aug::study::collect_with_reference(&dir, &with, Some(&reference)).unwrap();
+    neus_aug::study::collect_with(
+        &dir,
+        &with,
+        &neus_aug::study::CollectOptions {
+            reference: Some(&reference),
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert_ne!(std::fs::read(with.join("pareto.png")).unwrap(), png);
     assert_eq!(
         std::fs::read_to_string(with.join("pareto.csv")).unwrap(),
@@ -766,7 +811,11 @@ fn pareto_and_reduced_reports_from_known_numbers() {
         assert!(md.contains(paper), "the paper's {paper} is missing:\n{md}");
     }
     // A reference front for a study that is not a pareto study is refused, not ignored.
-    let err = neus_aug::study::collect_with_reference(&dir, &to, Some(&reference))
+    let opts = neus_aug::study::CollectOptions {
+        reference: Some(&reference),
+        ..Default::default()
+    };
+    let err = neus_aug::study::collect_with(&dir, &to, &opts)
         .unwrap_err()
         .to_string();
     assert!(

@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 ///
 ///   neus-aug study table2 --out studies/table2        (runs, resumable; then writes report/)
 ///   neus-aug study collect studies/table2             (tables and plots from what exists)
+///   neus-aug study collect studies/table2 --scenes blob,torus --seeds 3 --to DIR   (a part)
 ///   neus-aug study reduced --emit-jobs studies/red    (jobs.txt, slurm.sbatch, parallel.sh)
 ///   python3 scripts/fetch_outside.py && neus-aug study outside   (meshes from outside)
 #[derive(Debug, clap::Args)]
@@ -31,14 +32,16 @@ pub struct StudyArgs {
     /// For `collect`: the study folder.
     pub dir: Option<PathBuf>,
     /// Scenes, comma-separated: built-in names, `all`, folders or DTU scans (default: every
-    /// built-in scene for table2 and hard, the default scene otherwise).
+    /// built-in scene for table2 and hard, the default scene otherwise). For `collect`: report
+    /// only these scenes, named as the report names them.
     #[arg(long)]
     pub scenes: Option<String>,
     /// For `outside`: the folder of meshes (.ply, .obj) to render and reconstruct, one scene
     /// each under STUDY/scenes/ (made once; an existing scene is kept).
     #[arg(long, value_name = "DIR", default_value = "target/outside")]
     pub meshes: PathBuf,
-    /// Seeds per cell, 0..N (default: 3; pareto 1; smoke and outside 2).
+    /// Seeds per cell, 0..N (default: 3; pareto 1; smoke and outside 2). For `collect`: report
+    /// only seeds 0..N.
     #[arg(long)]
     pub seeds: Option<u32>,
     /// Preset every run starts from.
@@ -265,7 +268,20 @@ fn run_collect(args: &StudyArgs) -> anyhow::Result<()> {
         .map(|p| report::read_reference_front(p, &args.reference_label))
         .transpose()
         .context("--reference-front")?;
-    let c = study::collect_with_reference(dir, &to, reference.as_ref())
+    let subset = study::Subset {
+        scenes: args.scenes.as_ref().map(|l| {
+            l.split(',')
+                .map(|s| s.trim().to_string())
+                .filter(|s| !s.is_empty())
+                .collect()
+        }),
+        seeds: args.seeds,
+    };
+    let opts = study::CollectOptions {
+        reference: reference.as_ref(),
+        subset,
+    };
+    let c = study::collect_with(dir, &to, &opts)
         .with_context(|| format!("collect {}", dir.display()))?;
     println!(
         "collected {} of {} runs from {} into {}{}",

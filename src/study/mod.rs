@@ -65,7 +65,7 @@ pub mod store;
 
 pub use grid::{Grid, StudyOptions};
 pub use plan::{RunSpec, StudyPlan};
-pub use report::{collect, collect_with_reference, CollectSummary, RunRecord};
+pub use report::{collect, collect_with, CollectOptions, CollectSummary, RunRecord, Subset};
 pub use run::{execute, ExecOptions, ExecSummary};
 
 use std::path::PathBuf;

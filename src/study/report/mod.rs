@@ -94,21 +94,85 @@ struct Summary {
     geometry: Option<hard::GeometrySummary>,
 }
 
-/// Collects the study in `dir` and writes the report files into `to` (created).
-pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
-    collect_with_reference(dir, to, None)
+/// Part of a study to report (`study collect DIR --scenes A,B --seeds N`): the runs of these
+/// scenes (by name, as the report names them) and of seeds `0..N`. The report then reads as
+/// the report of a study planned with those options, which would hold exactly these runs.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Subset {
+    /// Scene names; `None` keeps every scene.
+    pub scenes: Option<Vec<String>>,
+    /// Keep seeds `0..n`; `None` keeps every seed.
+    pub seeds: Option<u32>,
 }
 
-/// [`collect`], with another pareto study's front drawn beside this one's in `pareto.png`
-/// (`study collect DIR --reference-front OTHER`). A reference for a study of another grid is
-/// refused (there is no accuracy-against-time plot to draw it in).
-pub fn collect_with_reference(
+impl Subset {
+    /// Restricts `plan` and `records` to the subset. An unknown scene, or a seed count of 0
+    /// or above the plan's, is refused by option.
+    pub fn restrict(
+        &self,
+        plan: &mut plan::StudyPlan,
+        records: &mut Vec<RunRecord>,
+    ) -> Result<(), StudyError> {
+        let o = &mut plan.options;
+        if let Some(names) = &self.scenes {
+            let labels: Vec<String> = o
+                .scenes
+                .iter()
+                .map(|s| super::grid::scene_label(s))
+                .collect();
+            if let Some(bad) = names.iter().find(|n| !labels.contains(n)) {
+                return Err(StudyError::Option {
+                    option: "--scenes".into(),
+                    value: bad.clone(),
+                    why: format!("the study holds the scenes {}", labels.join(", ")),
+                });
+            }
+            o.scenes
+                .retain(|s| names.contains(&super::grid::scene_label(s)));
+            plan.runs.retain(|r| names.contains(&r.scene_label()));
+        }
+        if let Some(n) = self.seeds {
+            if n == 0 || n > o.seeds {
+                return Err(StudyError::Option {
+                    option: "--seeds".into(),
+                    value: n.to_string(),
+                    why: format!("the study has seeds 0..{}; give 1 to {}", o.seeds, o.seeds),
+                });
+            }
+            o.seeds = n;
+            plan.runs.retain(|r| r.seed < u64::from(n));
+        }
+        records.retain(|r| plan.runs.iter().any(|s| s.id == r.id));
+        Ok(())
+    }
+}
+
+/// What `study collect` may add to [`collect`]: a reference front, a subset.
+#[derive(Clone, Debug, Default)]
+pub struct CollectOptions<'a> {
+    /// Another pareto study's front, drawn beside this one's in `pareto.png`
+    /// (`--reference-front`). Refused for a study of another grid (there is no
+    /// accuracy-against-time plot to draw it in).
+    pub reference: Option<&'a plot::ReferenceFront>,
+    /// Report only part of the study.
+    pub subset: Subset,
+}
+
+/// Collects the study in `dir` and writes the report files into `to` (created).
+pub fn collect(dir: &Path, to: &Path) -> Result<CollectSummary, StudyError> {
+    collect_with(dir, to, &CollectOptions::default())
+}
+
+/// [`collect`] with the options of [`CollectOptions`].
+pub fn collect_with(
     dir: &Path,
     to: &Path,
-    reference: Option<&plot::ReferenceFront>,
+    opts: &CollectOptions<'_>,
 ) -> Result<CollectSummary, StudyError> {
+    let reference = opts.reference;
     super::plan::sync_records(dir, &super::plan::StudyPlan::load(dir)?)?;
-    let (plan, records) = load_records(dir)?;
+    let (mut plan, mut records) = load_records(dir)?;
+    opts.subset.restrict(&mut plan, &mut records)?;
     if let (Some(r), false) = (reference, plan::is_pareto(&plan)) {
         return Err(StudyError::Option {
             option: "--reference-front".into(),
