@@ -152,6 +152,75 @@ fn bad_pose_refinement_settings_are_refused_by_key() {
     }
 }
 
+/// The depth prior's automatic switch with refinement on: its check and the stereo it turns on
+/// use the cameras refined by the check's step (step 2 of 24 here; refinement from step 0), and
+/// `depth_auto.json` records their corrections. A run stopped after the check and resumed
+/// rebuilds those cameras from the record and gives the same mesh bit for bit; resumed from a
+/// record whose corrections were zeroed (the imported cameras), it gives another mesh, so the
+/// record is what the stereo uses; a record that does not fit the scene is refused by name.
+#[test]
+fn the_depth_switch_uses_and_records_the_refined_cameras() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("perturbed");
+    copy_dir(tiny_scene(), &scene);
+    neus_aug_lib_perturb(&scene);
+    let cfg = write_config(
+        tmp.path(),
+        24,
+        "[train.depth]\nstart_step = 0\nrays = 64\n[train.depth.mvs]\nplanes = 32\n\
+         [train.depth.auto]\nmin_step = 0\nmargin = 0.01\nstep = 0.005\nshare = 1e-9\n\
+         min_rays = 1\n[train.pose_refine]\nenabled = true\nstart = 0.0\nlr = 1e-2\n",
+    );
+    let json = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let full = tmp.path().join("full");
+    ok(&reconstruct(&scene, &cfg, &full, &[]));
+    let rec = json(&full.join("depth_auto.json"));
+    assert_eq!(rec["step"].as_u64(), Some(2), "{rec}");
+    assert_eq!(rec["triggered"].as_bool(), Some(true), "{rec}");
+    let views = rec["pose"]["views"].as_array().unwrap();
+    assert_eq!(views.len(), 7, "{rec}");
+    let moved = views
+        .iter()
+        .flat_map(|v| v.as_array().unwrap())
+        .any(|x| x.as_f64().unwrap() != 0.0);
+    assert!(moved, "the corrections had moved by step 2: {rec}");
+    assert_eq!(json(&full.join("metrics.json"))["train"]["depth_auto"], rec);
+
+    // Stopped after the check (the corrections move on), resumed, with the record as written,
+    // zeroed, or cut short.
+    let resumed = |name: &str, edit: &dyn Fn(&mut serde_json::Value)| {
+        let out = tmp.path().join(name);
+        let o = reconstruct(&scene, &cfg, &out, &["--stop-after", "6"]);
+        assert!(!o.status.success());
+        let path = out.join("depth_auto.json");
+        let mut r = json(&path);
+        edit(&mut r);
+        std::fs::write(&path, r.to_string()).unwrap();
+        (reconstruct(&scene, &cfg, &out, &["--resume"]), out)
+    };
+    let (o, same) = resumed("same", &|_| {});
+    ok(&o);
+    let mesh = |d: &Path| std::fs::read(d.join("mesh.ply")).unwrap();
+    assert_eq!(mesh(&full), mesh(&same), "resumed from the record");
+    let (o, zeroed) = resumed("zeroed", &|r| {
+        for v in r["pose"]["views"].as_array_mut().unwrap() {
+            *v = serde_json::json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        }
+    });
+    ok(&o);
+    assert_ne!(mesh(&full), mesh(&zeroed), "the stereo ignored the record");
+    let (o, _) = resumed("short", &|r| {
+        r["pose"]["views"].as_array_mut().unwrap().pop();
+    });
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("depth_auto.json") && err.contains("6 views"),
+        "{err}"
+    );
+}
+
 /// The synthetic perturbation test: `synth --perturb-poses 0.5,3` (every pose off by 0.5° and
 /// 3 mm), 300 steps of the tiny network with refinement: the refined cameras are closer to the
 /// true ones than the imported ones, in angle and in where they put the object in the image

@@ -46,13 +46,12 @@ pub(super) fn train(
     );
     if cfg.train.pose_refine.enabled {
         trainer = trainer.with_pose_refinement(&cameras);
-        let d = &cfg.train.depth;
-        if d.enabled() || d.auto.enabled {
+        if cfg.train.depth.enabled() {
             say(
                 quiet,
-                "note: the stereo depth prior (train.depth) uses the imported cameras, not the \
-                 refined ones; with poses off by 0.5° it doubled the error \
-                 (docs/pose-refinement.md): consider --set train.depth.auto.enabled=false",
+                "note: the stereo depth prior asked for (train.depth) is computed before \
+                 training, from the imported cameras, not the refined ones; its automatic \
+                 switch (train.depth.auto) instead uses the cameras refined by its step",
             );
         }
     }
@@ -78,8 +77,11 @@ pub(super) fn train(
     };
     let resumed_from = (state.step > 0).then_some(state.step);
     let mut depth_auto = switch.recorded_or_check(cfg, model, &state, &cameras, data)?;
-    if depth_auto.as_ref().is_some_and(|c| c.triggered) && state.step < iters {
-        depth_maps = Some(switch.turn_on(cfg, &cameras, data, &mut trainer));
+    if let Some(c) = depth_auto
+        .as_ref()
+        .filter(|c| c.triggered && state.step < iters)
+    {
+        depth_maps = Some(switch.turn_on(cfg, c, &cameras, data, &mut trainer)?);
     }
     let mut progress = Progress::new(iters, state.step, quiet);
     let (mut rays, mut samples) = (0u64, 0u64);
@@ -90,7 +92,7 @@ pub(super) fn train(
         if switch.due(state.step) && depth_auto.is_none() {
             let check = switch.check(cfg, model, &state, &cameras, data)?;
             if check.triggered && state.step < iters {
-                depth_maps = Some(switch.turn_on(cfg, &cameras, data, &mut trainer));
+                depth_maps = Some(switch.turn_on(cfg, &check, &cameras, data, &mut trainer)?);
             }
             depth_auto = Some(check);
         }
@@ -310,17 +312,45 @@ impl Switch {
     }
 
     /// The prior as the switch turns it on, attached to the trainer; its stereo's summary.
+    /// Its stereo uses the cameras of `check` (refined by the check's step when pose refinement
+    /// is on, [`cameras_of`]).
     fn turn_on(
         &self,
         cfg: &RunConfig,
-        cameras: &[Camera],
+        check: &AutoCheck,
+        imported: &[Camera],
         data: &TrainData,
         trainer: &mut Trainer,
-    ) -> DepthMapsSummary {
+    ) -> Result<DepthMapsSummary, ReconstructError> {
         let on = cfg.train.depth.switched_on(self.step);
-        let (prior, summary) = stereo_prior(&on, cameras, data, self.quiet);
+        let cameras = self.cameras_of(check.pose.as_ref(), imported)?;
+        let (prior, summary) = stereo_prior(&on, &cameras, data, self.quiet);
         trainer.set_depth_prior(prior);
-        summary
+        Ok(summary)
+    }
+
+    /// The training cameras as pose refinement had them at the check: `imported` with the
+    /// corrections of `pose` (none: refinement off). A recorded `pose` that does not fit the
+    /// scene's cameras is an error naming the record.
+    fn cameras_of(
+        &self,
+        pose: Option<&crate::train::pose_refine::PoseSnapshot>,
+        imported: &[Camera],
+    ) -> Result<Vec<Camera>, ReconstructError> {
+        let Some(p) = pose else {
+            return Ok(imported.to_vec());
+        };
+        p.corrected(imported)
+            .ok_or_else(|| ReconstructError::Output {
+                path: self.path.clone(),
+                problem: format!(
+                    "the pose corrections recorded there ({} views, {} focal scales) do not fit \
+                 this scene's {} training cameras; delete the file to check again",
+                    p.views.len(),
+                    p.focal.len(),
+                    imported.len()
+                ),
+            })
     }
 
     /// The check on the field of `state` (`train::depth_auto`): sweeps its views, marches
@@ -331,11 +361,13 @@ impl Switch {
         cfg: &RunConfig,
         model: &NeusModel,
         state: &TrainState,
-        cameras: &[Camera],
+        imported: &[Camera],
         data: &TrainData,
     ) -> Result<AutoCheck, ReconstructError> {
         let a = &cfg.train.depth.auto;
         let t0 = Instant::now();
+        let pose = state.pose.as_ref().map(|p| p.snapshot());
+        let cameras = &self.cameras_of(pose.as_ref(), imported)?;
         let views = depth_auto::check_views(cameras.len(), a.views);
         let (imgs, masks) = (data.views(), data.masks());
         let maps = mvs::sweep_depths(&cfg.train.depth.mvs, cameras, imgs, masks, &views);
@@ -361,6 +393,7 @@ impl Switch {
             threshold: a.share,
             triggered,
             seconds: t0.elapsed().as_secs_f64(),
+            pose,
         };
         let verdict = if triggered {
             "the field has closed space the stereo sees through (a cavity's lid): depth prior on"

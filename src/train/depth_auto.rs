@@ -148,6 +148,11 @@ pub struct AutoCheck {
     pub triggered: bool,
     /// Wall time of the sweep and the march, seconds.
     pub seconds: f64,
+    /// Pose refinement's corrections at the check (absent when `train.pose_refine` is off):
+    /// the check and the stereo it turns on use the cameras they give, and a run resumed past
+    /// the check rebuilds the same cameras from this record.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pose: Option<crate::train::pose_refine::PoseSnapshot>,
 }
 
 /// `count` training views out of `n`, spread evenly over the list (`⌊q·n / count⌋`), each once.
