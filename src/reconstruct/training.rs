@@ -313,7 +313,7 @@ impl Switch {
 
     /// The prior as the switch turns it on, attached to the trainer; its stereo's summary.
     /// Its stereo uses the cameras of `check` (refined by the check's step when pose refinement
-    /// is on, [`cameras_of`]).
+    /// is on, [`Self::cameras_of`]).
     fn turn_on(
         &self,
         cfg: &RunConfig,
@@ -355,7 +355,8 @@ impl Switch {
 
     /// The check on the field of `state` (`train::depth_auto`): sweeps its views, marches
     /// their rays through the field, decides, says so and writes the decision to
-    /// `depth_auto.json`.
+    /// `depth_auto.json`. With pose refinement on, the views are those the state's corrections
+    /// give (the field was trained through them), and the record keeps the corrections.
     fn check(
         &self,
         cfg: &RunConfig,
