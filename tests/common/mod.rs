@@ -1,6 +1,7 @@
 //! Helpers shared by the integration tests: small random scenes in the DTU layout.
 #![allow(dead_code)]
 
+pub mod study;
 pub mod tiny;
 
 use nalgebra::{Matrix3, Vector3};
