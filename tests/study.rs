@@ -547,8 +547,9 @@ fn the_reduced_grid_reuses_table2_records_for_its_full_cells() {
 }
 
 /// `study outside` renders every mesh of `--meshes` once into the study folder's `scenes/`,
-/// plans the baseline on each, and keeps the rendered scenes when called again; a folder
-/// without meshes is refused with the way to fetch them.
+/// plans the baseline on each, and keeps the rendered scenes when called again; a dry run
+/// renders nothing and plans the scenes by the folders they will have; a folder without meshes
+/// is refused with the way to fetch them.
 #[test]
 fn the_outside_grid_renders_each_mesh_once_and_plans_the_baseline() {
     let tmp = tempfile::tempdir().unwrap();
@@ -573,34 +574,54 @@ fn the_outside_grid_renders_each_mesh_once_and_plans_the_baseline() {
     std::fs::write(meshes.join("gem.obj"), obj).unwrap();
     std::fs::write(meshes.join("notes.txt"), "not a mesh").unwrap();
     let dir = tmp.path().join("outside");
-    let cmd = || {
+    let cmd = |mode: &[&str]| {
         let mut c = neus_aug();
-        c.args(["study", "outside", "--seeds", "2", "--dry-run", "--meshes"])
+        c.args(["study", "outside", "--seeds", "2", "--meshes"])
             .arg(&meshes)
-            .arg("--out")
+            .args(mode)
             .arg(&dir);
         c
     };
-    let o = cmd().output().unwrap();
+    let dry = ["--dry-run", "--out"];
+    let jobs = ["--emit-jobs"];
+    // A dry run writes nothing and still plans both runs.
+    let o = cmd(&dry).output().unwrap();
     let err = ok(&o);
-    assert!(err.contains("rendering"), "{err}");
+    assert!(
+        err.contains("would render") && !err.contains("rendering"),
+        "{err}"
+    );
+    assert!(!dir.exists(), "a dry run wrote {}", dir.display());
     let plan = String::from_utf8_lossy(&o.stdout).into_owned();
     assert!(plan.contains("(2 runs)"), "{plan}");
     for id in ["gem-baseline-s0", "gem-baseline-s1"] {
         assert!(plan.contains(id), "{plan}");
     }
     assert!(plan.contains("--preset fast --aug none"), "{plan}");
+    assert!(plan.contains("scenes/gem"), "{plan}");
+    // Planning for real renders the scene once.
+    let err = ok(&cmd(&jobs).output().unwrap());
+    assert!(err.contains("rendering"), "{err}");
     let meta: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("scenes/gem/meta.json")).unwrap())
             .unwrap();
     assert_eq!(meta["mesh_genus"], 0);
-    // Called again: the scene is reused, not rendered again.
+    // Called again: the scene is reused, not rendered again, and a dry run plans the same runs.
     let before = std::fs::metadata(dir.join("scenes/gem/meta.json"))
         .unwrap()
         .modified()
         .unwrap();
-    let err = ok(&cmd().output().unwrap());
+    let err = ok(&cmd(&jobs).output().unwrap());
     assert!(!err.contains("rendering"), "{err}");
+    let o = cmd(&dry).output().unwrap();
+    let err = ok(&o);
+    assert!(!err.contains("render"), "{err}");
+    let again = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert_eq!(
+        plan.lines().count(),
+        again.lines().count(),
+        "{plan}\n{again}"
+    );
     let after = std::fs::metadata(dir.join("scenes/gem/meta.json"))
         .unwrap()
         .modified()

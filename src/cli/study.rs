@@ -59,7 +59,8 @@ pub struct StudyArgs {
     /// The study folder (default `studies/<grid>-<preset>`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Print the plan (runs and their command lines) and exit.
+    /// Print the plan (runs and their command lines) and exit, writing nothing (`outside`
+    /// lists the scenes it would render instead of rendering them).
     #[arg(long)]
     pub dry_run: bool,
     /// Plan the study in DIR and write jobs.txt, slurm.sbatch and parallel.sh instead of running.
@@ -116,9 +117,15 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         opts.scenes = grid::parse_scenes(list, &args.data_root)?;
     } else if g == Grid::Outside {
         opts.scenes = Vec::new();
-        for folder in outside_scenes(&args.meshes, &dir.join("scenes"), args.quiet)? {
-            opts.scenes
-                .extend(grid::parse_scenes(&folder, &args.data_root)?);
+        let render = !args.dry_run;
+        for folder in outside_scenes(&args.meshes, &dir.join("scenes"), args.quiet, render)? {
+            if Path::new(&folder).is_dir() {
+                opts.scenes
+                    .extend(grid::parse_scenes(&folder, &args.data_root)?);
+            } else {
+                // A scene a dry run did not render: planned by the path it will have.
+                opts.scenes.push(folder);
+            }
         }
     }
     if let Some(n) = args.seeds {
@@ -200,8 +207,15 @@ fn study_dir(args: &StudyArgs, g: Grid, opts: &StudyOptions) -> anyhow::Result<P
 /// The `outside` grid's scenes: every `.ply` and `.obj` file of `meshes` (sorted by name)
 /// rendered, as `neus-aug synth --mesh FILE` renders it (the default scene's rig, lighting and
 /// effects), into `scenes/<file stem>`. A scene folder that already holds a finished scene
-/// (`meta.json`) is kept, so a study resumes without rendering again. Returns the folders.
-fn outside_scenes(meshes: &Path, scenes: &Path, quiet: bool) -> anyhow::Result<Vec<String>> {
+/// (`meta.json`) is kept, so a study resumes without rendering again. With `render` false (a
+/// dry run) nothing is rendered: a missing scene is only announced, and its folder is returned
+/// as an absolute path. Returns the folders.
+fn outside_scenes(
+    meshes: &Path,
+    scenes: &Path,
+    quiet: bool,
+    render: bool,
+) -> anyhow::Result<Vec<String>> {
     let fetch = "python3 scripts/fetch_outside.py downloads the outside set into target/outside";
     let entries = std::fs::read_dir(meshes).with_context(|| {
         format!(
@@ -234,6 +248,22 @@ fn outside_scenes(meshes: &Path, scenes: &Path, quiet: bool) -> anyhow::Result<V
             mesh.display()
         );
         let folder = scenes.join(&desc.name);
+        if !folder.join("meta.json").is_file() && !render {
+            if !quiet {
+                eprintln!(
+                    "[outside] {}/{}: would render {} into {} (not in a dry run)",
+                    i + 1,
+                    files.len(),
+                    mesh.display(),
+                    folder.display()
+                );
+            }
+            desc.validate()?;
+            let abs = std::path::absolute(&folder)
+                .with_context(|| format!("{}: cannot make the path absolute", folder.display()))?;
+            out.push(abs.display().to_string());
+            continue;
+        }
         if !folder.join("meta.json").is_file() {
             if !quiet {
                 eprintln!(
