@@ -248,7 +248,8 @@ fn outside_scenes(
             mesh.display()
         );
         let folder = scenes.join(&desc.name);
-        if !folder.join("meta.json").is_file() && !render {
+        let rendered = folder.join("meta.json").is_file();
+        if !rendered && !render {
             if !quiet {
                 eprintln!(
                     "[outside] {}/{}: would render {} into {} (not in a dry run)",
@@ -264,7 +265,7 @@ fn outside_scenes(
             out.push(abs.display().to_string());
             continue;
         }
-        if !folder.join("meta.json").is_file() {
+        if !rendered {
             if !quiet {
                 eprintln!(
                     "[outside] {}/{}: rendering {} into {}",
