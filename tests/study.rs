@@ -649,3 +649,71 @@ fn a_closed_pipe_ends_a_long_listing_without_a_panic() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// `--reuse-training DIR`: a study that differs from a finished one only in mesh settings
+/// borrows each run's final checkpoint and re-extracts (no step trained), and its mesh differs;
+/// a study of other training borrows nothing and trains; a folder that is no study is refused.
+#[test]
+fn mesh_only_variants_reuse_another_studys_training() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cfg = write_config(tmp.path());
+    let (base, variant, other) = (
+        tmp.path().join("base"),
+        tmp.path().join("variant"),
+        tmp.path().join("other"),
+    );
+    let hard = |dir: &Path, extra: &[&str]| {
+        let mut c = neus_aug();
+        c.args(["study", "hard", "--seeds", "1", "--scenes"])
+            .arg(tiny_scene())
+            .arg("--config")
+            .arg(&cfg)
+            .args(extra)
+            .arg("--out")
+            .arg(dir)
+            .arg("--quiet");
+        c.output().unwrap()
+    };
+    ok(&hard(&base, &[]));
+    let ids: Vec<String> = run_folders(&base)
+        .iter()
+        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(ids.len(), 1, "{ids:?}");
+    let reuse = base.to_str().unwrap();
+    let read = |dir: &Path| -> serde_json::Value {
+        let p = run_dir(dir, &ids[0]).join("metrics.json");
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    // Mesh settings only: the checkpoint is borrowed, nothing is trained, the mesh changes.
+    ok(&hard(
+        &variant,
+        &["--set", "mesh.fine_res=24", "--reuse-training", reuse],
+    ));
+    assert_eq!(log_lines(&variant, "reuse"), ids);
+    let (b, v) = (read(&base), read(&variant));
+    assert_eq!(v["train"]["resumed_from"], 40, "the variant trained: {v}");
+    assert_eq!(b["train"]["resumed_from"], serde_json::Value::Null);
+    assert_eq!(v["config_hash"], b["config_hash"]);
+    assert_ne!(v["mesh"]["vertices"], b["mesh"]["vertices"]);
+    // Other training (fewer steps): nothing to borrow; it trains.
+    ok(&hard(
+        &other,
+        &["--set", "train.iterations=30", "--reuse-training", reuse],
+    ));
+    assert!(log_lines(&other, "reuse").is_empty());
+    assert_eq!(
+        read(&other)["train"]["resumed_from"],
+        serde_json::Value::Null
+    );
+    // A folder that holds no study is refused before anything runs.
+    let err = fails(&hard(
+        &tmp.path().join("x"),
+        &["--reuse-training", tmp.path().to_str().unwrap()],
+    ));
+    assert!(
+        err.contains("--reuse-training") && err.contains("runs/"),
+        "{err}"
+    );
+    assert!(!tmp.path().join("x").exists());
+}

@@ -86,6 +86,13 @@ pub struct StudyArgs {
     /// one (repeatable): e.g. the reduced grid's 100 % cells from a Table 2 study.
     #[arg(long, value_name = "DIR")]
     pub reuse_records: Vec<PathBuf>,
+    /// Another study folder whose finished runs of the same training lend their final
+    /// checkpoint (repeatable): a run of the same id, scene, seed, data, augmentation, model and
+    /// optimisation, differing only in mesh, evaluation or export settings, then only
+    /// re-extracts, scores and renders (e.g. a clean-up rule turned off over a finished study).
+    /// Its record's times are the re-extraction's.
+    #[arg(long, value_name = "DIR")]
+    pub reuse_training: Vec<PathBuf>,
     /// Run at most N of the unfinished runs (seed-major plan order), then write the report and
     /// stop; the next call continues.
     #[arg(long, value_name = "N")]
@@ -137,6 +144,18 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
     if let Some(c) = &args.config {
         anyhow::ensure!(c.is_file(), "--config {}: no such file", c.display());
     }
+    for d in &args.reuse_training {
+        anyhow::ensure!(
+            d.join("runs").is_dir(),
+            "--reuse-training {}: not a study folder with runs (its runs/ is missing)",
+            d.display()
+        );
+    }
+    anyhow::ensure!(
+        args.reuse_training.is_empty() || args.emit_jobs.is_none(),
+        "--reuse-training works only when the study runs here, not with --emit-jobs (copy the \
+         finished checkpoints into the job folders' runs instead)"
+    );
     let (plan, cfgs) = plan::make_plan(&opts, args.config.as_deref(), &dir)?;
     if args.dry_run {
         println!(
@@ -178,6 +197,7 @@ pub fn run(args: StudyArgs) -> anyhow::Result<()> {
         &study::ExecOptions {
             quiet: args.quiet,
             reuse_records: args.reuse_records.clone(),
+            reuse_training: args.reuse_training.clone(),
             max_runs: args.runs,
         },
     )

@@ -20,6 +20,10 @@ pub struct ExecOptions {
     /// Other studies whose records of the same configurations count as runs of this one
     /// ([`super::plan::import_records`]).
     pub reuse_records: Vec<std::path::PathBuf>,
+    /// Other studies whose finished runs of the same training lend this study's runs their
+    /// final checkpoint ([`lend_checkpoint`]), so a run that differs from them only in mesh,
+    /// evaluation or export settings re-extracts instead of training again.
+    pub reuse_training: Vec<std::path::PathBuf>,
     /// Run at most this many unfinished runs (in plan order), then write the report and stop:
     /// a slice of a long grid, so several grids can advance in turn.
     pub max_runs: Option<usize>,
@@ -92,6 +96,36 @@ fn reuse_checkpoint(dir: &Path, src: &str, dst: &str) -> Result<bool, StudyError
     Ok(true)
 }
 
+/// Copies into this study's run `id` (folder `dst`, with no checkpoint yet) the final checkpoint
+/// of the run of the same id in the study folder `other`, when that run is finished and its
+/// `config.toml` has the training hash of `cfg` ([`RunConfig::training_hash`]: the same scene,
+/// seed, data, augmentation, model and optimisation). Returns whether it copied; a run of
+/// other training is left alone (this run then trains).
+fn lend_checkpoint(
+    other: &Path,
+    id: &str,
+    cfg: &RunConfig,
+    dst: &Path,
+) -> Result<bool, StudyError> {
+    let src = run_dir(other, id);
+    let (from, saved) = (src.join("checkpoint.safetensors"), src.join("config.toml"));
+    let to = dst.join("checkpoint.safetensors");
+    if !src.join("metrics.json").is_file() || !from.is_file() || !saved.is_file() || to.exists() {
+        return Ok(false);
+    }
+    let text = std::fs::read_to_string(&saved).map_err(io_err(&saved))?;
+    let Ok(theirs) = RunConfig::from_saved_toml(&text, &saved.display().to_string()) else {
+        return Ok(false);
+    };
+    if theirs.training_hash() != cfg.training_hash() {
+        return Ok(false);
+    }
+    std::fs::create_dir_all(dst).map_err(io_err(dst))?;
+    let bytes = std::fs::read(&from).map_err(io_err(&from))?;
+    dtu_eval::atomic::write_atomic(&to, &bytes).map_err(io_err(&to))?;
+    Ok(true)
+}
+
 /// Runs every unfinished run of `plan` in `dir` (see the module docs), then writes the report
 /// (`dir/report/`). `cfgs` are the runs' resolved configurations (from
 /// [`super::plan::make_plan`]); `base_src` the user's `--config` file, copied into a new folder.
@@ -141,9 +175,19 @@ pub fn execute(
                 log(dir, &format!("reuse {} checkpoint-of {src}", spec.id))?;
             }
         }
-        let resuming = run_dir(dir, &spec.id)
-            .join("checkpoint.safetensors")
-            .is_file();
+        let rd = run_dir(dir, &spec.id);
+        if !rd.join("checkpoint.safetensors").is_file() {
+            for other in &opts.reuse_training {
+                if lend_checkpoint(other, &spec.id, cfg, &rd)? {
+                    log(
+                        dir,
+                        &format!("reuse {} training-of {}", spec.id, other.display()),
+                    )?;
+                    break;
+                }
+            }
+        }
+        let resuming = rd.join("checkpoint.safetensors").is_file();
         log(
             dir,
             &format!(
