@@ -56,29 +56,24 @@ fn the_per_part_table_aggregates_pairs_and_fills_as_documented() {
     );
     // Recipe: per-mesh mean ratios a 2.0, b 4.0, c 9.0 → median 4.0, worst 9.0 (c), mean 5.0;
     // genus right in 3 of the 4 runs with a known truth (c's is unknown).
-    write_runs(
-        &base,
-        &[
-            ("a", 0, 1.0, 1.0, 0, 0),
-            ("a", 1, 1.0, 3.0, 0, 0),
-            ("b", 0, 2.0, 4.0, 1, 1),
-            ("b", 1, 2.0, 4.0, 5, 1),
-            ("c", 0, 3.0, 9.0, 2, -1),
-            ("c", 1, 3.0, 9.0, 2, -1),
-        ],
-    );
+    let recipe = [
+        ("a", 0, 1.0, 1.0, 0, 0),
+        ("a", 1, 1.0, 3.0, 0, 0),
+        ("b", 0, 2.0, 4.0, 1, 1),
+        ("b", 1, 2.0, 4.0, 5, 1),
+        ("c", 0, 3.0, 9.0, 2, -1),
+        ("c", 1, 3.0, 9.0, 2, -1),
+    ];
+    write_runs(&base, &recipe);
     // A part off on every run: a and b unchanged, c better (ratio 3.0, Chamfer 1.0 → −2.0 mm).
-    write_runs(
-        &part,
-        &[
-            ("a", 0, 1.0, 1.0, 0, 0),
-            ("a", 1, 1.0, 3.0, 0, 0),
-            ("b", 0, 2.0, 4.0, 1, 1),
-            ("b", 1, 2.0, 4.0, 5, 1),
-            ("c", 0, 1.0, 3.0, 2, -1),
-            ("c", 1, 1.0, 3.0, 2, -1),
-        ],
-    );
+    let off: Vec<_> = recipe
+        .iter()
+        .map(|&(s, seed, ch, r, g, t)| match s {
+            "c" => (s, seed, 1.0, 3.0, g, t),
+            _ => (s, seed, ch, r, g, t),
+        })
+        .collect();
+    write_runs(&part, &off);
     // A part run only where it acts (b at seed 1, now right and worse by 50 %), the rest filled.
     write_runs(&some, &[("b", 1, 3.0, 6.0, 1, 1)]);
     let label_part = format!("off={}", part.display());

@@ -84,13 +84,18 @@ fn log(dir: &Path, msg: &str) -> Result<(), StudyError> {
 /// Copies the final checkpoint of `src` into `dst` when `src` is finished and `dst` has none, so
 /// `dst` (same training, other mesh settings) only re-extracts. Returns whether it copied.
 fn reuse_checkpoint(dir: &Path, src: &str, dst: &str) -> Result<bool, StudyError> {
-    let (s, d) = (run_dir(dir, src), run_dir(dir, dst));
-    let from = s.join("checkpoint.safetensors");
-    let to = d.join("checkpoint.safetensors");
-    if !s.join("metrics.json").is_file() || !from.is_file() || to.exists() {
+    copy_final_checkpoint(&run_dir(dir, src), &run_dir(dir, dst))
+}
+
+/// Copies `src/checkpoint.safetensors` into run folder `dst` (atomically) when the run in `src`
+/// is finished (`metrics.json`) and `dst` has no checkpoint yet. Returns whether it copied.
+fn copy_final_checkpoint(src: &Path, dst: &Path) -> Result<bool, StudyError> {
+    let from = src.join("checkpoint.safetensors");
+    let to = dst.join("checkpoint.safetensors");
+    if !src.join("metrics.json").is_file() || !from.is_file() || to.exists() {
         return Ok(false);
     }
-    std::fs::create_dir_all(&d).map_err(io_err(&d))?;
+    std::fs::create_dir_all(dst).map_err(io_err(dst))?;
     let bytes = std::fs::read(&from).map_err(io_err(&from))?;
     dtu_eval::atomic::write_atomic(&to, &bytes).map_err(io_err(&to))?;
     Ok(true)
@@ -108,9 +113,8 @@ fn lend_checkpoint(
     dst: &Path,
 ) -> Result<bool, StudyError> {
     let src = run_dir(other, id);
-    let (from, saved) = (src.join("checkpoint.safetensors"), src.join("config.toml"));
-    let to = dst.join("checkpoint.safetensors");
-    if !src.join("metrics.json").is_file() || !from.is_file() || !saved.is_file() || to.exists() {
+    let saved = src.join("config.toml");
+    if !saved.is_file() || dst.join("checkpoint.safetensors").exists() {
         return Ok(false);
     }
     let text = std::fs::read_to_string(&saved).map_err(io_err(&saved))?;
@@ -120,10 +124,7 @@ fn lend_checkpoint(
     if theirs.training_hash() != cfg.training_hash() {
         return Ok(false);
     }
-    std::fs::create_dir_all(dst).map_err(io_err(dst))?;
-    let bytes = std::fs::read(&from).map_err(io_err(&from))?;
-    dtu_eval::atomic::write_atomic(&to, &bytes).map_err(io_err(&to))?;
-    Ok(true)
+    copy_final_checkpoint(&src, dst)
 }
 
 /// Runs every unfinished run of `plan` in `dir` (see the module docs), then writes the report
