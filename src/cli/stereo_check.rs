@@ -26,6 +26,11 @@ pub struct StereoCheckArgs {
     /// A stereo depth within this distance of the truth counts as right (mm).
     #[arg(long, default_value_t = 1.0)]
     pub tol_mm: f64,
+    /// Also say, for the depths behind the truth, what the prior's photo check
+    /// (`train.depth.photo_check`) would do once the field's surface is the true one: keep the
+    /// span (the true surface matches across the views better than the depth) or carve it.
+    #[arg(long)]
+    pub photo: bool,
 }
 
 /// Counts of one kind of stereo depth (measured, fusion fill, hole fill).
@@ -114,6 +119,12 @@ pub fn run(args: StereoCheckArgs) -> anyhow::Result<()> {
     );
     let maps = neus_aug::mvs::depth_maps(&cfg.train.depth.mvs, &cameras, &images, masks.as_deref());
     let tol = args.tol_mm / norm.scale;
+    let photo = args.photo.then(|| {
+        neus_aug::mvs::PhotoCost::new(&cfg.train.depth.mvs, &cameras, &images, masks.as_deref())
+    });
+    // Depths behind the truth: kept by the photo check, the true surface's cost undefined,
+    // above `max_cost`, and matched better by the depth.
+    let (mut behind, mut kept, mut undefined, mut above, mut worse) = (0usize, 0, 0, 0, 0);
     let (mut measured, mut fused, mut holes) =
         (Tally::default(), Tally::default(), Tally::default());
     for (v, cam) in cameras.iter().enumerate() {
@@ -129,7 +140,33 @@ pub fn run(args: StereoCheckArgs) -> anyhow::Result<()> {
                     Vec3A::new(o.x as f32, o.y as f32, o.z as f32),
                     Vec3A::new(d.x as f32, d.y as f32, d.z as f32),
                 )
-                .map(|(_, t)| t as f64);
+                .map(|(i, t)| (i, t as f64));
+            if let (Some(pc), Some((i, tg))) = (&photo, hit) {
+                if t as f64 > tg + tol {
+                    let tri = &tris[i as usize];
+                    let n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0).normalize();
+                    // Facing the camera: the outward side the ray sees.
+                    let s = if n.dot(Vec3A::new(d.x as f32, d.y as f32, d.z as f32)) > 0.0 {
+                        -1.0
+                    } else {
+                        1.0
+                    };
+                    let n = [n.x, n.y, n.z].map(|c| (s * c) as f64);
+                    let (px, py) = (k % w, k / w);
+                    let at_truth = pc.cost(v, px, py, tg, Some(n));
+                    behind += 1;
+                    if at_truth.is_nan() {
+                        undefined += 1;
+                    } else if at_truth > cfg.train.depth.mvs.max_cost {
+                        above += 1;
+                    } else if pc.cost(v, px, py, t as f64, None) < at_truth {
+                        worse += 1;
+                    } else {
+                        kept += 1;
+                    }
+                }
+            }
+            let hit = hit.map(|h| h.1);
             let tally = if maps.hole_filled[v][k] {
                 &mut holes
             } else if maps.filled[v][k] {
@@ -161,5 +198,18 @@ pub fn run(args: StereoCheckArgs) -> anyhow::Result<()> {
         all.no_truth += t.no_truth;
     }
     println!("{}", all.line("all"));
+    if args.photo {
+        let pc = |k: usize| 100.0 * k as f64 / behind.max(1) as f64;
+        println!(
+            "photo check, with the true surface as the field's: of {behind} depths behind the \
+             truth, {kept} ({:.1} %) kept from carving; carved: {undefined} ({:.1} %) with no \
+             cost at the truth, {above} ({:.1} %) above max_cost there, {worse} ({:.1} %) \
+             matched better at the depth",
+            pc(kept),
+            pc(undefined),
+            pc(above),
+            pc(worse)
+        );
+    }
     Ok(())
 }

@@ -48,6 +48,7 @@
 
 mod fuse;
 mod holes;
+mod photo;
 mod slant;
 mod sweep;
 #[cfg(test)]
@@ -58,6 +59,7 @@ use crate::scene::{Camera, GrayImage, RgbImage};
 use fuse::{consistent, fuse};
 use holes::{fill_holes, free_of_others, SurfelCloud};
 use nalgebra::{Matrix3, Vector3};
+pub use photo::PhotoCost;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sweep::sweep_view;

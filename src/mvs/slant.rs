@@ -44,13 +44,13 @@ const SLANT_MAX_DEG: f64 = 80.0;
 /// A pixel's plane in the reference camera's frame: the points `X` with `n·X = d`, `n` a unit
 /// vector with `n·r > 0` along the pixel's ray `r` (so `n` points away from the camera), `d > 0`.
 #[derive(Clone, Copy, Debug)]
-struct Plane {
+pub(super) struct Plane {
     n: Vector3<f64>,
     d: f64,
 }
 
 /// What the cost of one view needs: its pixels' rays and the sources' warps.
-struct Matcher<'a> {
+pub(super) struct Matcher<'a> {
     cfg: &'a MvsConfig,
     vi: &'a View,
     views: &'a [View],
@@ -64,14 +64,31 @@ struct Matcher<'a> {
     min_var: f64,
 }
 
-impl Matcher<'_> {
+impl<'a> Matcher<'a> {
+    /// The matcher of view `i` against its sources `srcs`.
+    pub(super) fn new(cfg: &'a MvsConfig, views: &'a [View], i: usize, srcs: &'a [usize]) -> Self {
+        let vi = &views[i];
+        let hf = cfg.window_half;
+        let nwin = (2 * hf + 1) * (2 * hf + 1);
+        Matcher {
+            cfg,
+            vi,
+            views,
+            srcs,
+            warps: srcs.iter().map(|&j| vi.warp_to(&views[j])).collect(),
+            kinv: vi.kinv,
+            nwin,
+            min_var: (cfg.min_std as f64).powi(2) * nwin as f64,
+        }
+    }
+
     /// The camera-frame ray (`z = 1`) through pixel coordinates `(u, v)`.
     fn ray(&self, u: f64, v: f64) -> Vector3<f64> {
         self.kinv * Vector3::new(u, v, 1.0)
     }
 
     /// The plane through the point at camera depth `z` of pixel `(x, y)` with normal `n`.
-    fn plane_at(&self, x: usize, y: usize, z: f64, n: Vector3<f64>) -> Plane {
+    pub(super) fn plane_at(&self, x: usize, y: usize, z: f64, n: Vector3<f64>) -> Plane {
         let r = self.ray(x as f64 + 0.5, y as f64 + 0.5);
         Plane {
             n,
@@ -81,7 +98,7 @@ impl Matcher<'_> {
 
     /// The camera depth of `pl` at pixel `(x, y)`, when it lies in front of the camera and
     /// the normal is within [`SLANT_MAX_DEG`] of the ray.
-    fn depth(&self, pl: &Plane, x: usize, y: usize) -> Option<f64> {
+    pub(super) fn depth(&self, pl: &Plane, x: usize, y: usize) -> Option<f64> {
         let r = self.ray(x as f64 + 0.5, y as f64 + 0.5);
         let nr = pl.n.dot(&r);
         let cos_max = SLANT_MAX_DEG.to_radians().cos();
@@ -91,7 +108,7 @@ impl Matcher<'_> {
     /// The reference window of pixel `(x, y)` (the window inside the image): `(mean, Σ(a −
     /// mean)²)` of its grey values, `None` when it holds a non-finite value or too little
     /// texture (`min_std`). It does not depend on the plane, so [`refine`] takes it once.
-    fn reference(&self, x: usize, y: usize) -> Option<(f64, f64)> {
+    pub(super) fn reference(&self, x: usize, y: usize) -> Option<(f64, f64)> {
         let (w, hf) = (self.vi.w, self.cfg.window_half as isize);
         let n = self.nwin as f64;
         let (mut sa, mut saa) = (0.0f64, 0.0f64);
@@ -111,7 +128,7 @@ impl Matcher<'_> {
 
     /// The cost of `pl` at pixel `(x, y)`, whose window is `reference` ([`Self::reference`]):
     /// `1 − NCC` averaged over the `top_k` best sources, NaN when fewer than `top_k` give one.
-    fn cost(
+    pub(super) fn cost(
         &self,
         pl: &Plane,
         x: usize,
@@ -198,18 +215,7 @@ pub(super) fn refine(
     if cfg.slant_iters == 0 || srcs.len() < cfg.top_k || w <= 2 * hf || h <= 2 * hf {
         return z0.to_vec();
     }
-    let warps = srcs.iter().map(|&j| vi.warp_to(&views[j])).collect();
-    let nwin = (2 * hf + 1) * (2 * hf + 1);
-    let m = Matcher {
-        cfg,
-        vi,
-        views,
-        srcs,
-        warps,
-        kinv: vi.kinv,
-        nwin,
-        min_var: (cfg.min_std as f64).powi(2) * nwin as f64,
-    };
+    let m = Matcher::new(cfg, views, i, srcs);
     // The pixels refined: in the mask, with the window inside the image.
     let inside =
         |x: usize, y: usize| x >= hf && y >= hf && x + hf < w && y + hf < h && vi.mask[y * w + x];

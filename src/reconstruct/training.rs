@@ -103,8 +103,13 @@ pub(super) fn train(
         }
         let secs = t_loop.elapsed().as_secs_f64().max(1e-9);
         let mut depth_note = report.depth.map_or(String::new(), |d| {
+            let kept = if d.photo_kept > 0 {
+                format!(", {} kept by the photo check", d.photo_kept)
+            } else {
+                String::new()
+            };
             format!(
-                " depth on {}/{} rays, carved {}",
+                " depth on {}/{} rays, carved {}{kept}",
                 d.with_depth, d.rays, d.carved
             )
         });
@@ -465,8 +470,15 @@ fn stereo_prior(
              nothing",
         );
     }
-    (
-        DepthPrior::new(depth.clone(), cameras.to_vec(), maps),
-        summary,
-    )
+    let mut prior = DepthPrior::new(depth.clone(), cameras.to_vec(), maps);
+    if depth.photo_check {
+        let images = data.views();
+        prior = prior.with_photo(mvs::PhotoCost::new(
+            &depth.mvs,
+            cameras,
+            images,
+            data.masks(),
+        ));
+    }
+    (prior, summary)
 }

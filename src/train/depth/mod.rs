@@ -23,11 +23,11 @@
 mod carve;
 
 pub use carve::{carve_loss_grad, CarvedRay};
-pub(crate) use carve::{masked_rays, sdf_f64, surface_hits};
+pub(crate) use carve::{masked_rays, sdf_f64, surface_hits, Hit};
 
 use super::data::Batch;
 use crate::field::Real;
-use crate::mvs::{DepthMaps, MvsConfig};
+use crate::mvs::{DepthMaps, MvsConfig, PhotoCost};
 use crate::render::NeusModel;
 use crate::scene::Camera;
 use serde::{Deserialize, Serialize};
@@ -85,6 +85,16 @@ pub struct DepthConfig {
     /// out of `config.toml` at 0.
     #[serde(skip_serializing_if = "zero")]
     pub veto_band: f32,
+    /// Photo check of the free span (off): a span is carved, and its depth pulled to, only
+    /// where the field's first surface on the ray fails the stereo's own test there, that is,
+    /// where its matching cost ([`crate::mvs::PhotoCost`], the plane through the crossing with
+    /// the field's normal) is above `mvs.max_cost` or undefined, or the stereo's depth matches
+    /// better (a lower cost, facing the camera). A surface the images agree on (a wall's face)
+    /// is then not tunnelled by one view's depth behind it, while a lid the views see through
+    /// (a cavity's, whose cost is high) is still carved. Space carving's photo-consistency
+    /// (Kutulakos & Seitz, IJCV 2000, §4). Left out of `config.toml` when off.
+    #[serde(skip_serializing_if = "not")]
+    pub photo_check: bool,
     /// The stereo.
     pub mvs: MvsConfig,
     /// The automatic switch: with `weight` 0, whether a check part-way through the run turns
@@ -95,6 +105,16 @@ pub struct DepthConfig {
 /// Whether an opt-in count is 0 (off).
 fn off(n: &usize) -> bool {
     *n == 0
+}
+
+/// Whether a count is zero.
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+/// Whether an opt-in switch is off.
+fn not(b: &bool) -> bool {
+    !*b
 }
 
 /// Whether an opt-in length is 0 (off).
@@ -116,6 +136,7 @@ impl Default for DepthConfig {
             refine: 6,
             confirm_views: 0,
             veto_band: 0.0,
+            photo_check: false,
             mvs: MvsConfig::default(),
             auto: Default::default(),
         }
@@ -216,6 +237,10 @@ pub struct DepthStep {
     pub with_depth: usize,
     /// Of them, rays with a non-empty free span (the field crosses in front of the depth).
     pub carved: usize,
+    /// Rays whose span the photo check (`photo_check`) kept from carving: the field's surface
+    /// in front of the depth matches across the views. Not counted in `carved`.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub photo_kept: usize,
     /// The weighted loss.
     pub loss: f64,
 }
@@ -225,13 +250,29 @@ pub struct DepthPrior {
     cfg: DepthConfig,
     maps: DepthMaps,
     cameras: Vec<Camera>,
+    /// The photo check's cost (`photo_check`; [`Self::with_photo`]).
+    photo: Option<PhotoCost>,
 }
 
 impl DepthPrior {
     /// The prior over `cameras` (normalised frame) with depth maps already made.
     pub fn new(cfg: DepthConfig, cameras: Vec<Camera>, maps: DepthMaps) -> Self {
         assert_eq!(cameras.len(), maps.t.len(), "one depth map per camera");
-        Self { cfg, maps, cameras }
+        Self {
+            cfg,
+            maps,
+            cameras,
+            photo: None,
+        }
+    }
+
+    /// This prior with the photo check's cost over the training images (used when
+    /// `photo_check` is on; without it the check passes every span).
+    pub fn with_photo(self, photo: PhotoCost) -> Self {
+        Self {
+            photo: Some(photo),
+            ..self
+        }
     }
 
     /// The depth maps.
@@ -250,21 +291,24 @@ impl DepthPrior {
         rays: &[(usize, [u32; 2])],
     ) -> (DepthStep, Vec<CarvedRay>) {
         let cfg = &self.cfg;
-        let with: Vec<(Line, f64, usize)> = rays
+        let with: Vec<(Line, f64, usize, [u32; 2])> = rays
             .iter()
             .filter_map(|&(v, [x, y])| {
                 let td = self.maps.get(v, x, y)?;
                 let (o, d) = self.cameras[v].ray(x as f64 + 0.5, y as f64 + 0.5);
-                Some(((o.into(), d.into()), td, v))
+                Some(((o.into(), d.into()), td, v, [x, y]))
             })
             .collect();
         let lines: Vec<Line> = with.iter().map(|w| w.0).collect();
         let hits = surface_hits(sdf, &lines, r, cfg.march_samples, cfg.refine, eps);
         let (sp, mg, tau) = (cfg.spacing as f64, cfg.margin as f64, cfg.tau as f64);
+        let photo_ok = self.photo_pass(&with, &hits);
+        let mut photo_kept = 0;
         let plan: Vec<CarvedRay> = with
             .iter()
             .zip(&hits)
-            .map(|(&((o, d), td, v), hit)| {
+            .zip(photo_ok)
+            .map(|((&((o, d), td, v, _), hit), photo_ok)| {
                 let at = |s: f64| [0, 1, 2].map(|q| o[q] + s * d[q]);
                 let t0 = hit.as_ref().map_or(td, |h| h.t);
                 let mut free = Vec::new();
@@ -289,6 +333,11 @@ impl DepthPrior {
                     });
                     pull = pull && !self.seen_by(v, &surface, 1, |tj, r| tj > r + mg);
                 }
+                if !photo_ok && !free.is_empty() {
+                    free.clear();
+                    pull = false;
+                    photo_kept += 1;
+                }
                 CarvedRay {
                     t: t0,
                     t_b: td,
@@ -303,9 +352,41 @@ impl DepthPrior {
             rays: rays.len(),
             with_depth: plan.len(),
             carved: plan.iter().filter(|c| !c.free.is_empty()).count(),
+            photo_kept,
             loss: 0.0,
         };
         (step, plan)
+    }
+
+    /// Per ray of `with` (the rays with a depth, as `(line, t_d, view, pixel)`) and its
+    /// first crossing `hits`, whether the photo check (`photo_check`) lets its span be carved:
+    /// true when the check is off, the ray has no crossing, or the crossing's cost (the plane
+    /// with the field's normal there) is above `mvs.max_cost`, undefined, or above the cost at
+    /// the depth.
+    fn photo_pass(&self, with: &[(Line, f64, usize, [u32; 2])], hits: &[Option<Hit>]) -> Vec<bool> {
+        let photo = match (&self.photo, self.cfg.photo_check) {
+            (Some(p), true) => p,
+            _ => return vec![true; with.len()],
+        };
+        let mg = self.cfg.margin as f64;
+        with.iter()
+            .zip(hits)
+            .map(|(&(_, td, v, [x, y]), hit)| {
+                let Some(h) = hit.as_ref().filter(|h| h.t <= td - mg) else {
+                    return true; // no span to carve
+                };
+                let g = h.grad;
+                let norm = g.iter().map(|c| c * c).sum::<f64>().sqrt();
+                let normal = (norm > 0.0 && norm.is_finite()).then(|| g.map(|c| c / norm));
+                let (x, y) = (x as usize, y as usize);
+                let at_field = photo.cost(v, x, y, h.t, normal);
+                // No cost (NaN), or above the stereo's own bar: the images do not back it.
+                if at_field.is_nan() || at_field > self.cfg.mvs.max_cost {
+                    return true;
+                }
+                photo.cost(v, x, y, td, None) < at_field
+            })
+            .collect()
     }
 
     /// Whether at least `confirm_views` training views other than `view` confirm the point `x`
@@ -628,6 +709,46 @@ mod tests {
             .1
             .iter()
             .all(|c| !c.pull));
+    }
+
+    /// The photo check: one view's depth behind a wall whose face the images agree on (the
+    /// rig's textured plane) carves none of the wall and is not pulled to, while a false sheet
+    /// in front of that plane, where the views' windows disagree, is carved and pulled as
+    /// without the check. Without the cost (no images given) the check passes every span.
+    #[test]
+    fn the_photo_check_keeps_a_seen_walls_inside_and_carves_a_sheet_the_images_see_through() {
+        let cfg = |photo_check| DepthConfig {
+            weight: 1.0,
+            photo_check,
+            ..Default::default()
+        };
+        let (_, imgs) = rig();
+        let with_photo = |c: DepthConfig| {
+            let (p, cams) = plane_prior(c.clone());
+            p.with_photo(PhotoCost::new(&c.mvs, &cams, &imgs, None))
+        };
+        let rays = six_rays();
+        let inside = |plan: &[CarvedRay]| carved_between(plan, -0.055, -0.005);
+        let mut off = with_photo(cfg(false));
+        let mut on = with_photo(cfg(true));
+        let (mut bare, _) = plane_prior(cfg(true));
+        for p in [&mut off, &mut on, &mut bare] {
+            shift_depths(p, &rays, 0.3);
+        }
+        let (_, plan_off) = off.plan(3.0, &slab, 1e-5, &rays);
+        assert!(inside(&plan_off) >= 6 * 8, "{}", inside(&plan_off));
+        assert_eq!(bare.plan(3.0, &slab, 1e-5, &rays).1, plan_off);
+        let (out, plan) = on.plan(3.0, &slab, 1e-5, &rays);
+        assert_eq!((out.with_depth, out.carved), (6, 0));
+        assert_eq!(inside(&plan), 0, "the wall's face is photo-consistent");
+        assert!(plan.iter().all(|c| !c.pull && c.span > 0));
+
+        let sheet = |pts: &[[f64; 3]]| pts.iter().map(|x| x[2] - 0.4).collect::<Vec<_>>();
+        let (on, off) = (with_photo(cfg(true)), with_photo(cfg(false)));
+        let (out, plan) = on.plan(3.0, &sheet, 1e-5, &rays);
+        assert_eq!(out.carved, 6, "the views see through the sheet");
+        assert_eq!(plan, off.plan(3.0, &sheet, 1e-5, &rays).1);
+        assert!(plan.iter().all(|c| c.pull));
     }
 
     /// The camera centre of the ray behind `c` (every plan entry is one of `rays` with a depth).
