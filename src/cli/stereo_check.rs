@@ -120,7 +120,8 @@ pub fn run(args: StereoCheckArgs) -> anyhow::Result<()> {
     let maps = neus_aug::mvs::depth_maps(&cfg.train.depth.mvs, &cameras, &images, masks.as_deref());
     let tol = args.tol_mm / norm.scale;
     let photo = args.photo.then(|| {
-        neus_aug::mvs::PhotoCost::new(&cfg.train.depth.mvs, &cameras, &images, masks.as_deref())
+        let m = cfg.train.depth.photo_mvs();
+        neus_aug::mvs::PhotoCost::new(&m, &cameras, &images, masks.as_deref())
     });
     // Depths behind the truth: kept by the photo check, the true surface's cost undefined,
     // above `max_cost`, and matched better by the depth.

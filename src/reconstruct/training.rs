@@ -474,7 +474,7 @@ fn stereo_prior(
     if depth.photo_check {
         let images = data.views();
         prior = prior.with_photo(mvs::PhotoCost::new(
-            &depth.mvs,
+            &depth.photo_mvs(),
             cameras,
             images,
             data.masks(),

@@ -95,6 +95,12 @@ pub struct DepthConfig {
     /// (Kutulakos & Seitz, IJCV 2000, §4). Left out of `config.toml` when off.
     #[serde(skip_serializing_if = "not")]
     pub photo_check: bool,
+    /// Half-width of the photo check's window, pixels (0: the stereo's `mvs.window_half`). The
+    /// check tells a surface from no surface rather than finding a depth, so it can afford a
+    /// wider window than the stereo, which tells fewer depths apart on a smooth texture. Left
+    /// out of `config.toml` at 0.
+    #[serde(skip_serializing_if = "off")]
+    pub photo_window_half: usize,
     /// The stereo.
     pub mvs: MvsConfig,
     /// The automatic switch: with `weight` 0, whether a check part-way through the run turns
@@ -137,6 +143,7 @@ impl Default for DepthConfig {
             confirm_views: 0,
             veto_band: 0.0,
             photo_check: false,
+            photo_window_half: 0,
             mvs: MvsConfig::default(),
             auto: Default::default(),
         }
@@ -199,6 +206,12 @@ impl DepthConfig {
                 "must be at most 64 (0: off)",
             ),
             c(
+                "photo_window_half",
+                self.photo_window_half <= 16,
+                &self.photo_window_half,
+                "must be at most 16 (pixels; 0: the stereo's window)",
+            ),
+            c(
                 "veto_band",
                 nonneg(self.veto_band),
                 &self.veto_band,
@@ -214,6 +227,15 @@ impl DepthConfig {
         self.auto
             .invalid()
             .map(|(key, value, why)| (key.to_string(), value, why))
+    }
+
+    /// The stereo's settings as the photo check uses them: `mvs` with the check's window.
+    pub fn photo_mvs(&self) -> MvsConfig {
+        let mut m = self.mvs.clone();
+        if self.photo_window_half > 0 {
+            m.window_half = self.photo_window_half;
+        }
+        m
     }
 
     /// This prior as the automatic switch turns it on after step `check_step`: weight
@@ -815,6 +837,26 @@ mod tests {
             .unwrap()
         };
         assert!(!band(0.0).contains("veto_band") && band(0.05).contains("veto_band = 0.05"));
+        assert_eq!(
+            bad(&|c| c.photo_window_half = 17),
+            key("train.depth.photo_window_half")
+        );
+        let photo = toml::to_string(&DepthConfig {
+            photo_check: true,
+            photo_window_half: 4,
+            ..Default::default()
+        })
+        .unwrap();
+        assert!(photo.contains("photo_check = true") && photo.contains("photo_window_half = 4"));
+        assert!(!text(0).contains("photo"), "both are left out when off");
+        let wide = DepthConfig {
+            photo_window_half: 4,
+            ..Default::default()
+        };
+        assert_eq!(
+            (wide.photo_mvs().window_half, d.photo_mvs()),
+            (4, d.mvs.clone())
+        );
         type Mutate = fn(&mut DepthConfig);
         let cases: [(Mutate, &str); 12] = [
             (|c| c.mvs.min_consistent = 9, "min_consistent"),
