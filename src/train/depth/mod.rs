@@ -21,8 +21,8 @@
 //!
 //! What it costs: the stereo once, when the prior turns on (a few tens of seconds for 46 views
 //! of 400 × 300 on 2 cores), and a surface search of `rays` rays per step; with `photo_check`,
-//! also the training images' grey values and masks (5 bytes a pixel) and two window costs per ray with a
-//! span.
+//! also the training images' grey values and masks (5 bytes a pixel) and two window costs per
+//! ray with a span.
 
 mod carve;
 
