@@ -154,13 +154,14 @@ pub fn run(args: StereoCheckArgs) -> anyhow::Result<()> {
                     };
                     let n = [n.x, n.y, n.z].map(|c| (s * c) as f64);
                     let (px, py) = (k % w, k / w);
-                    let at_truth = pc.cost(v, px, py, tg, Some(n));
+                    let c = pc.costs(v, px, py, &[(tg, Some(n)), (t as f64, None)]);
+                    let (at_truth, at_depth) = (c[0], c[1]);
                     behind += 1;
                     if at_truth.is_nan() {
                         undefined += 1;
                     } else if at_truth > cfg.train.depth.mvs.max_cost {
                         above += 1;
-                    } else if pc.cost(v, px, py, t as f64, None) < at_truth {
+                    } else if at_depth < at_truth {
                         worse += 1;
                     } else {
                         kept += 1;

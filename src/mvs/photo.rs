@@ -48,31 +48,53 @@ impl PhotoCost {
     /// none: the window leaves the image, it holds a non-finite grey or too little texture, the
     /// point lies behind the camera, or fewer than `top_k` sources give a cost.
     pub fn cost(&self, view: usize, x: usize, y: usize, t: f64, normal: Option<[f64; 3]>) -> f32 {
+        self.costs(view, x, y, &[(t, normal)])[0]
+    }
+
+    /// [`Self::cost`] at several points `(t, normal)` of one pixel's ray, the sources' warps
+    /// and the reference window taken once.
+    pub fn costs(
+        &self,
+        view: usize,
+        x: usize,
+        y: usize,
+        at: &[(f64, Option<[f64; 3]>)],
+    ) -> Vec<f32> {
         let (vi, hf) = (&self.views[view], self.cfg.window_half);
         let srcs = &self.sources[view];
         let inside = x >= hf && y >= hf && x + hf < vi.w && y + hf < vi.h;
-        if !inside || srcs.len() < self.cfg.top_k || !(t.is_finite() && t > 0.0) {
-            return f32::NAN;
+        if !inside || srcs.len() < self.cfg.top_k {
+            return vec![f32::NAN; at.len()];
         }
         let m = Matcher::new(&self.cfg, &self.views, view, srcs);
         let Some(reference) = m.reference(x, y) else {
-            return f32::NAN;
+            return vec![f32::NAN; at.len()];
         };
         // `t` along the unit ray is `z·|d|` for the ray `d` whose camera z is 1.
-        let z = t / vi.dir(x as f64 + 0.5, y as f64 + 0.5).norm();
-        let front = m.plane_at(x, y, z, Vector3::z());
-        let plane = normal
-            .map(|n| {
-                // The plane's normal points away from the camera (`Plane`): minus the outward one.
-                let nc = -(vi.r * Vector3::from(n));
-                m.plane_at(x, y, z, nc.normalize())
+        let dir_norm = vi.dir(x as f64 + 0.5, y as f64 + 0.5).norm();
+        let mut scratch = Vec::with_capacity(srcs.len());
+        at.iter()
+            .map(|&(t, normal)| {
+                if !(t.is_finite() && t > 0.0) {
+                    return f32::NAN;
+                }
+                let z = t / dir_norm;
+                let front = m.plane_at(x, y, z, Vector3::z());
+                let plane = normal
+                    .map(|n| {
+                        // The plane's normal points away from the camera (`Plane`): minus the
+                        // outward one.
+                        let nc = -(vi.r * Vector3::from(n));
+                        m.plane_at(x, y, z, nc.normalize())
+                    })
+                    .filter(|pl| {
+                        m.depth(pl, x, y)
+                            .is_some_and(|zz| (zz - z).abs() <= 1e-9 * z)
+                    })
+                    .unwrap_or(front);
+                m.cost(&plane, x, y, reference, &mut scratch)
             })
-            .filter(|pl| {
-                m.depth(pl, x, y)
-                    .is_some_and(|zz| (zz - z).abs() <= 1e-9 * z)
-            })
-            .unwrap_or(front);
-        m.cost(&plane, x, y, reference, &mut Vec::with_capacity(srcs.len()))
+            .collect()
     }
 }
 
@@ -103,6 +125,22 @@ mod tests {
             (on, far, n) = (on + c_n, far + pc.cost(0, x, y, t - 0.4, None), n + 1.0);
         }
         assert!(far / n > 0.3 && on / n < 1e-3, "{on} against {far}");
+        // Several points of one ray at once give what one at a time gives.
+        let t = plane_t(&cams[0], 48.5, 40.5);
+        let at = [
+            (t, Some([0.0, 0.0, 1.0])),
+            (t - 0.1, None),
+            (f64::NAN, None),
+        ];
+        let both = pc.costs(0, 48, 40, &at);
+        assert_eq!(
+            both[..2],
+            at[..2]
+                .iter()
+                .map(|&(t, n)| pc.cost(0, 48, 40, t, n))
+                .collect::<Vec<_>>()
+        );
+        assert!(both[2].is_nan());
         let t = plane_t(&cams[0], 0.5, 0.5);
         assert!(
             pc.cost(0, 0, 0, t, None).is_nan(),

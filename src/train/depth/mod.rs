@@ -400,12 +400,13 @@ impl DepthPrior {
                 let norm = g.iter().map(|c| c * c).sum::<f64>().sqrt();
                 let normal = (norm > 0.0 && norm.is_finite()).then(|| g.map(|c| c / norm));
                 let (x, y) = (x as usize, y as usize);
-                let at_field = photo.cost(v, x, y, h.t, normal);
+                let c = photo.costs(v, x, y, &[(h.t, normal), (td, None)]);
+                let (at_field, at_depth) = (c[0], c[1]);
                 // No cost (NaN), or above the stereo's own bar: the images do not back it.
                 if at_field.is_nan() || at_field > self.cfg.mvs.max_cost {
                     return true;
                 }
-                photo.cost(v, x, y, td, None) < at_field
+                at_depth < at_field
             })
             .collect()
     }
