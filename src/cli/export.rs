@@ -108,9 +108,8 @@ fn extract(
     scene: &Scene,
     fine_res: usize,
 ) -> anyhow::Result<dtu_eval::mesh::TriMesh> {
+    let raw = marching_cubes_of(cfg, model, params, step, fine_res)?;
     let train = training_views(cfg, scene.views.len())?;
-    let cameras: Vec<&Camera> = train.iter().map(|&i| &scene.views[i].camera).collect();
-    let (raw, _) = marching_cubes_of(cfg, model, params, step, fine_res, &cameras)?;
     let masked: Vec<(&Camera, &GrayImage)> = train
         .iter()
         .filter_map(|&i| {
@@ -118,6 +117,7 @@ fn extract(
             v.mask.as_ref().map(|m| (&v.camera, m))
         })
         .collect();
+    let cameras: Vec<&Camera> = train.iter().map(|&i| &scene.views[i].camera).collect();
     let (_, mut mesh, _, _) = clean_cut(cfg, &raw, &masked, &cameras, scene.normalization.scale);
     to_world(&mut mesh, &scene.normalization);
     Ok(mesh)

@@ -7,12 +7,8 @@
 //! from the reference: the padding is at least one coarse cell, so the refined box strictly
 //! contains the coarse mesh and never collapses (a flat coarse mesh would give `min == max`).
 
-use super::closing::close_values;
-use super::fill::{fill_unseen, FillReport};
-use super::{
-    marching_cubes, marching_cubes_values, sample_grid, GridSpec, McError, McOptions, TriMesh,
-};
-use crate::scene::{Camera, Normalization};
+use super::{marching_cubes, GridSpec, McError, McOptions, TriMesh};
+use crate::scene::Normalization;
 
 /// Settings of [`extract_two_pass`].
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -90,40 +86,6 @@ pub fn extract_two_pass<F>(sdf: &F, opts: &TwoPassOptions) -> Result<TwoPass, Mc
 where
     F: Fn(&[[f32; 3]]) -> Vec<f32> + Sync,
 {
-    two_pass_with(sdf, opts, |grid| marching_cubes(sdf, grid, &opts.mc))
-}
-
-/// [`extract_two_pass`] with the refined pass's values held in memory (4 bytes and 1 byte of
-/// state per point: about 0.6 GiB at 512³) and the free space that none of `cameras` sees filled
-/// ([`super::fill`]) before the closing of `opts.mc.close_radius` and marching cubes. `cameras`
-/// are in the SDF's (normalised) frame. The report is `None` when the coarse mesh was empty.
-pub fn extract_two_pass_filled<F>(
-    sdf: &F,
-    opts: &TwoPassOptions,
-    cameras: &[&Camera],
-) -> Result<(TwoPass, Option<FillReport>), McError>
-where
-    F: Fn(&[[f32; 3]]) -> Vec<f32> + Sync,
-{
-    let mut report = None;
-    let two = two_pass_with(sdf, opts, |grid| {
-        let mut values = sample_grid(sdf, grid, &opts.mc)?;
-        report = Some(fill_unseen(&mut values, grid, opts.mc.iso, cameras)?);
-        close_values(&mut values, grid.res, opts.mc.close_radius);
-        marching_cubes_values(&values, grid, opts.mc.iso)
-    })?;
-    Ok((two, report))
-}
-
-/// The coarse pass, then `fine` on the refined grid when the coarse mesh has faces.
-fn two_pass_with<F>(
-    sdf: &F,
-    opts: &TwoPassOptions,
-    fine: impl FnOnce(&GridSpec) -> Result<TriMesh, McError>,
-) -> Result<TwoPass, McError>
-where
-    F: Fn(&[[f32; 3]]) -> Vec<f32> + Sync,
-{
     let coarse_grid = GridSpec::cube(opts.min, opts.max, opts.coarse_res);
     let coarse = marching_cubes(sdf, &coarse_grid, &opts.mc)?;
     let coarse_faces = coarse.faces.len();
@@ -136,7 +98,7 @@ where
         });
     };
     drop(coarse);
-    let mesh = fine(&fine_grid)?;
+    let mesh = marching_cubes(sdf, &fine_grid, &opts.mc)?;
     Ok(TwoPass {
         mesh,
         coarse_grid,

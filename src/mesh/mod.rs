@@ -41,7 +41,6 @@
 pub mod clean;
 pub mod closing;
 pub mod extract;
-pub mod fill;
 mod mcubes;
 pub mod reference;
 pub mod sdf;

@@ -182,13 +182,6 @@ pub struct MeshConfig {
     /// and keeps flat faces, convex parts and wider holes. `0` extracts the raw level set, as
     /// NeuS and instant-nsr-pl do. At most 8.
     pub close_radius: usize,
-    /// Fill the free space that no training camera sees before the closing and marching cubes
-    /// (`mesh::fill`, space carving's photo hull): closed voids inside the material and the
-    /// unseen middle of a tunnel through it, each a handle where it reaches the surface. Space
-    /// that reaches the refined box's faces (under the object) is kept. The refined pass is then
-    /// held in memory (about 5 bytes per point). Off; left out of `config.toml` when off.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
-    pub fill_unseen: bool,
     /// Clean the mesh before writing and scoring it (`mesh::clean`: mask culling, then small
     /// components, then enclosed ones, then unseen faces). The raw marching-cubes mesh is kept
     /// as `mesh_raw.ply` when the first three removed anything.
@@ -219,7 +212,6 @@ impl Default for MeshConfig {
             fine_res: 512,
             pad_fraction: 0.1,
             close_radius: 0,
-            fill_unseen: false,
             clean: true,
             clean_min_area_share: 0.02,
             clean_mask_cull: true,
@@ -783,24 +775,5 @@ mod tests {
         assert_eq!(a.training_hash(), b.training_hash());
         b.seed = 1;
         assert_ne!(a.training_hash(), b.training_hash());
-    }
-
-    /// `mesh.fill_unseen` is off in every preset and left out of the saved configuration when
-    /// off (a record's text, and with it its configuration hash, is unchanged); on, it is
-    /// written and read back.
-    #[test]
-    fn fill_unseen_is_off_and_left_out_when_off() {
-        for p in [Preset::Quick, Preset::Fast, Preset::Default, Preset::Paper] {
-            let c = p.config();
-            assert!(!c.mesh.fill_unseen);
-            assert!(!toml::to_string(&c.mesh).unwrap().contains("fill_unseen"));
-        }
-        let on = MeshConfig {
-            fill_unseen: true,
-            ..MeshConfig::default()
-        };
-        let text = toml::to_string(&on).unwrap();
-        assert!(text.contains("fill_unseen = true"), "{text}");
-        assert_eq!(toml::from_str::<MeshConfig>(&text).unwrap(), on);
     }
 }

@@ -6,8 +6,6 @@
 use super::prepare::Prepared;
 use super::{io_err, say, ReconstructError, RunConfig};
 use crate::mesh::clean::{clean_mesh, cull_unseen_parts, CleanOptions, CleanReport};
-use crate::mesh::extract::extract_two_pass_filled;
-use crate::mesh::fill::FillReport;
 use crate::mesh::{extract_two_pass, to_world, McOptions, TopologyReport, TriMesh, TwoPassOptions};
 use crate::render::model::NeusModel;
 use crate::scene::{Camera, GrayImage};
@@ -24,8 +22,6 @@ pub(super) struct Meshes {
     /// Faces rule 4 cut from `closed` (0: `mesh` is `closed`).
     pub unseen_faces: usize,
     pub clean: Option<CleanReport>,
-    /// What `mesh.fill_unseen` filled (`None` when off).
-    pub fill: Option<FillReport>,
     /// Topology of the raw marching-cubes mesh, of `closed` and of `mesh`.
     pub topo_raw: TopologyReport,
     pub topo: TopologyReport,
@@ -38,62 +34,40 @@ pub(super) fn extract(
     cfg: &RunConfig,
     p: &Prepared,
     state: &TrainState,
-    quiet: bool,
-) -> Result<(TriMesh, Option<FillReport>), ReconstructError> {
+) -> Result<TriMesh, ReconstructError> {
     let fine = cfg.mesh.fine_res;
-    let cameras = p.cameras();
-    let (mesh, fill) = marching_cubes_of(
-        cfg,
-        &p.model,
-        &state.params,
-        cfg.train.iterations,
-        fine,
-        &cameras,
-    )?;
-    if let Some(f) = fill {
-        say(
-            quiet,
-            format!(
-                "fill: {} of {} outside points unseen; {} enclosed regions ({} points) filled",
-                f.unseen, f.outside, f.regions, f.filled
-            ),
-        );
-    }
-    Ok((mesh, fill))
+    marching_cubes_of(cfg, &p.model, &state.params, cfg.train.iterations, fine)
 }
 
 /// The two-pass marching cubes of `reconstruct` (coarse over the box `[-r, r]³`, then
 /// `fine_res` points per axis over the coarse mesh's padded bounds, with the configured closing)
-/// on the SDF of `params` with the hash levels active at the end of `iterations` steps. With
-/// `mesh.fill_unseen`, the free space none of `cameras` (the training cameras, normalised
-/// frame) sees is filled first, and its report returned. The mesh is in the normalised frame.
+/// on the SDF of `params` with the hash levels active at the end of `iterations` steps. The mesh
+/// is in the normalised frame.
 pub fn marching_cubes_of(
     cfg: &RunConfig,
     model: &NeusModel,
     params: &[f32],
     iterations: u64,
     fine_res: usize,
-    cameras: &[&Camera],
-) -> Result<(TriMesh, Option<FillReport>), ReconstructError> {
+) -> Result<TriMesh, ReconstructError> {
     let active = model.config.inference_schedule(iterations).active_levels;
     let r = model.config.render.radius;
     let sdf = |pts: &[[f32; 3]]| model.sdf(params, pts, active);
-    let opts = TwoPassOptions {
-        min: [-r; 3],
-        max: [r; 3],
-        coarse_res: cfg.mesh.coarse_res,
-        fine_res,
-        pad_fraction: cfg.mesh.pad_fraction,
-        mc: McOptions {
-            close_radius: cfg.mesh.close_radius,
-            ..McOptions::default()
+    let two = extract_two_pass(
+        &sdf,
+        &TwoPassOptions {
+            min: [-r; 3],
+            max: [r; 3],
+            coarse_res: cfg.mesh.coarse_res,
+            fine_res,
+            pad_fraction: cfg.mesh.pad_fraction,
+            mc: McOptions {
+                close_radius: cfg.mesh.close_radius,
+                ..McOptions::default()
+            },
         },
-    };
-    if cfg.mesh.fill_unseen {
-        let (two, fill) = extract_two_pass_filled(&sdf, &opts, cameras)?;
-        return Ok((two.mesh, fill));
-    }
-    Ok((extract_two_pass(&sdf, &opts)?.mesh, None))
+    )?;
+    Ok(two.mesh)
 }
 
 /// The clean-up of `reconstruct` on `raw` (normalised frame): rules 1–3 of `mesh::clean` with the
@@ -144,7 +118,7 @@ pub fn clean_cut(
 pub(super) fn clean_and_write(
     cfg: &RunConfig,
     p: &Prepared,
-    (raw, fill): (TriMesh, Option<FillReport>),
+    raw: TriMesh,
     out: &Path,
     quiet: bool,
     t: Instant,
@@ -202,7 +176,6 @@ pub(super) fn clean_and_write(
         closed,
         unseen_faces,
         clean,
-        fill,
         topo_raw,
         topo,
         topo_seen,

@@ -230,9 +230,6 @@ pub struct MeshSummary {
     pub raw_faces: usize,
     /// What the clean-up removed (`None` when `mesh.clean = false`).
     pub clean: Option<crate::mesh::clean::CleanReport>,
-    /// What the fill of unseen free space filled (`mesh.fill_unseen`); absent when off.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub fill: Option<crate::mesh::fill::FillReport>,
 }
 
 /// Everything `metrics.json` holds.

@@ -196,7 +196,7 @@ fn finish(
     let quiet = opts.quiet;
     let trained = training::train(cfg, p, folder, opts)?;
     let t = Instant::now();
-    let raw = extract::extract(cfg, p, &trained.state, quiet)?;
+    let raw = extract::extract(cfg, p, &trained.state)?;
     let meshes = extract::clean_and_write(cfg, p, raw, &folder.out, quiet, t)?;
     let mut ev = evaluate::evaluate(cfg, p, &meshes, &folder.out, quiet)?;
     let truth_mesh = ev.truth_mesh.take();

@@ -82,7 +82,6 @@ pub(super) fn write_metrics(
             raw_components: m.topo_raw.components,
             raw_faces: m.topo_raw.faces,
             clean: m.clean,
-            fill: m.fill,
         },
         timings_s: timings,
         threads: rayon::current_num_threads(),
