@@ -157,14 +157,14 @@ pub fn run(args: StereoCheckArgs) -> anyhow::Result<()> {
                     let c = pc.costs(v, px, py, &[(tg, Some(n)), (t as f64, None)]);
                     let (at_truth, at_depth) = (c[0], c[1]);
                     behind += 1;
-                    if at_truth.is_nan() {
+                    if !cfg.train.depth.photo_carves(at_truth, at_depth) {
+                        kept += 1;
+                    } else if at_truth.is_nan() {
                         undefined += 1;
                     } else if at_truth > cfg.train.depth.mvs.max_cost {
                         above += 1;
-                    } else if at_depth < at_truth {
-                        worse += 1;
                     } else {
-                        kept += 1;
+                        worse += 1;
                     }
                 }
             }
@@ -206,11 +206,12 @@ pub fn run(args: StereoCheckArgs) -> anyhow::Result<()> {
             "photo check, with the true surface as the field's: of {behind} depths behind the \
              truth, {kept} ({:.1} %) kept from carving; carved: {undefined} ({:.1} %) with no \
              cost at the truth, {above} ({:.1} %) above max_cost there, {worse} ({:.1} %) \
-             matched better at the depth",
+             matched better at the depth (by more than photo_margin {})",
             pc(kept),
             pc(undefined),
             pc(above),
-            pc(worse)
+            pc(worse),
+            cfg.train.depth.photo_margin
         );
     }
     Ok(())

@@ -105,6 +105,13 @@ pub struct DepthConfig {
     /// out of `config.toml` at 0.
     #[serde(skip_serializing_if = "off")]
     pub photo_window_half: usize,
+    /// Margin of the photo check's comparison, in `1 − NCC` (0: none): the span is carved only
+    /// where the field's surface costs more than the stereo's depth by more than this. A
+    /// measured depth is the minimum of this very cost along its ray, so without a margin it
+    /// wins nearly every comparison; the margin asks the field's surface to be clearly worse.
+    /// At most 2 (the cost's range). Left out of `config.toml` at 0.
+    #[serde(skip_serializing_if = "zero")]
+    pub photo_margin: f32,
     /// The stereo.
     pub mvs: MvsConfig,
     /// The automatic switch: with `weight` 0, whether a check part-way through the run turns
@@ -143,6 +150,7 @@ impl Default for DepthConfig {
             veto_band: 0.0,
             photo_check: false,
             photo_window_half: 0,
+            photo_margin: 0.0,
             mvs: MvsConfig::default(),
             auto: Default::default(),
         }
@@ -211,6 +219,12 @@ impl DepthConfig {
                 "must be at most 16 (pixels; 0: the stereo's window)",
             ),
             c(
+                "photo_margin",
+                (0.0..=2.0).contains(&self.photo_margin),
+                &self.photo_margin,
+                "must be in [0, 2] (1 − NCC; 0: none)",
+            ),
+            c(
                 "veto_band",
                 nonneg(self.veto_band),
                 &self.veto_band,
@@ -226,6 +240,14 @@ impl DepthConfig {
         self.auto
             .invalid()
             .map(|(key, value, why)| (key.to_string(), value, why))
+    }
+
+    /// The photo check's verdict on a span (`photo_check`): whether it may be carved, given
+    /// the cost at the field's first surface and at the stereo's depth. Carved when the
+    /// field's cost is undefined or above `mvs.max_cost` (the images do not back that
+    /// surface), or above the depth's by more than `photo_margin`.
+    pub fn photo_carves(&self, at_field: f32, at_depth: f32) -> bool {
+        at_field.is_nan() || at_field > self.mvs.max_cost || at_depth + self.photo_margin < at_field
     }
 
     /// The stereo's settings as the photo check uses them: `mvs` with the check's window.
@@ -383,7 +405,7 @@ impl DepthPrior {
     /// first crossing `hits`, whether the photo check (`photo_check`) lets its span be carved:
     /// true when the check is off, the ray has no crossing, or the crossing's cost (the plane
     /// with the field's normal there) is above `mvs.max_cost`, undefined, or above the cost at
-    /// the depth.
+    /// the depth by more than `photo_margin` ([`DepthConfig::photo_carves`]).
     fn photo_pass(&self, with: &[(Line, f64, usize, [u32; 2])], hits: &[Option<Hit>]) -> Vec<bool> {
         let photo = match (&self.photo, self.cfg.photo_check) {
             (Some(p), true) => p,
@@ -401,12 +423,7 @@ impl DepthPrior {
                 let normal = (norm > 0.0 && norm.is_finite()).then(|| g.map(|c| c / norm));
                 let (x, y) = (x as usize, y as usize);
                 let c = photo.costs(v, x, y, &[(h.t, normal), (td, None)]);
-                let (at_field, at_depth) = (c[0], c[1]);
-                // No cost (NaN), or above the stereo's own bar: the images do not back it.
-                if at_field.is_nan() || at_field > self.cfg.mvs.max_cost {
-                    return true;
-                }
-                at_depth < at_field
+                self.cfg.photo_carves(c[0], c[1])
             })
             .collect()
     }
@@ -848,6 +865,25 @@ mod tests {
         })
         .unwrap();
         assert!(photo.contains("photo_check = true") && photo.contains("photo_window_half = 4"));
+        // The verdict: an undefined or too-high field cost carves; otherwise the field's cost
+        // must exceed the depth's by more than the margin.
+        let m = |photo_margin| DepthConfig {
+            photo_margin,
+            ..Default::default()
+        };
+        let max = d.mvs.max_cost;
+        assert!(m(0.0).photo_carves(f32::NAN, 0.1) && m(0.5).photo_carves(max + 0.01, max));
+        assert!(m(0.0).photo_carves(0.3, 0.2) && !m(0.0).photo_carves(0.2, 0.3));
+        assert!(!m(0.2).photo_carves(0.3, 0.2) && m(0.05).photo_carves(0.3, 0.2));
+        assert_eq!(
+            bad(&|c| c.photo_margin = 2.5),
+            key("train.depth.photo_margin")
+        );
+        assert_eq!(
+            bad(&|c| c.photo_margin = f32::NAN),
+            key("train.depth.photo_margin")
+        );
+        assert!(!text(0).contains("photo_margin"));
         assert!(!text(0).contains("photo"), "both are left out when off");
         let wide = DepthConfig {
             photo_window_half: 4,
