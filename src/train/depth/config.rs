@@ -264,39 +264,33 @@ mod tests {
             bad(&|c| c.confirm_views = 65),
             key("train.depth.confirm_views")
         );
-        // The opt-in key is written only when on, so older configurations keep their hash.
-        let text = |n| {
-            toml::to_string(&DepthConfig {
-                confirm_views: n,
-                ..Default::default()
-            })
-            .unwrap()
+        // The opt-in keys are written only when on, so older configurations keep their hash.
+        let saved = |f: &dyn Fn(&mut DepthConfig)| {
+            let mut c = DepthConfig::default();
+            f(&mut c);
+            toml::to_string(&c).unwrap()
         };
-        assert!(!text(0).contains("confirm_views") && text(1).contains("confirm_views = 1"));
+        let defaults = saved(&|_| {});
+        assert!(!defaults.contains("confirm_views"));
+        assert!(saved(&|c| c.confirm_views = 1).contains("confirm_views = 1"));
         assert_eq!(bad(&|c| c.veto_band = -0.1), key("train.depth.veto_band"));
         assert_eq!(
             bad(&|c| c.veto_band = f32::NAN),
             key("train.depth.veto_band")
         );
-        let band = |b| {
-            toml::to_string(&DepthConfig {
-                veto_band: b,
-                ..Default::default()
-            })
-            .unwrap()
-        };
-        assert!(!band(0.0).contains("veto_band") && band(0.05).contains("veto_band = 0.05"));
+        assert!(!defaults.contains("veto_band"));
+        assert!(saved(&|c| c.veto_band = 0.05).contains("veto_band = 0.05"));
         assert_eq!(
             bad(&|c| c.photo_window_half = 17),
             key("train.depth.photo_window_half")
         );
-        let photo = toml::to_string(&DepthConfig {
-            photo_check: true,
-            photo_window_half: 4,
-            ..Default::default()
-        })
-        .unwrap();
+        let photo = saved(&|c| {
+            c.photo_check = true;
+            c.photo_window_half = 4;
+            c.photo_margin = 0.1;
+        });
         assert!(photo.contains("photo_check = true") && photo.contains("photo_window_half = 4"));
+        assert!(photo.contains("photo_margin = 0.1"), "{photo}");
         // The verdict: an undefined or too-high field cost carves; otherwise the field's cost
         // must exceed the depth's by more than the margin.
         let m = |photo_margin| DepthConfig {
@@ -316,7 +310,7 @@ mod tests {
             key("train.depth.photo_margin")
         );
         assert!(
-            !text(0).contains("photo"),
+            !defaults.contains("photo"),
             "all three are left out when off"
         );
         let wide = DepthConfig {
