@@ -31,16 +31,28 @@ one by an unknown similarity (gauge freedom of structure from motion). This scri
    axes only weakly, and the object sits a lever arm of ~D from the cameras' centroid, so a
    rotation error the centres barely notice moves the object by millimetres; the viewing
    directions pin exactly that rotation;
-5. rewrites the mesh with every vertex mapped by `X ↦ s·R·X + t` of each fit (binary
+5. with `--colmap-model` (COLMAP's text model: `images.txt`, `points3D.txt`), fits a third
+   similarity ("points") to COLMAP's sparse points and the same tracks triangulated again with
+   the true cameras (linear triangulation, Hartley & Zisserman, "Multiple View Geometry", 2nd
+   ed., §12.2; both use COLMAP's pixel convention, the centre of the top-left pixel at
+   (0.5, 0.5)), keeping the 90 % of the points that fit best (three rounds). Why: on a compact
+   object seen from afar, a camera's centre moved sideways and its axis turned back onto the
+   object give nearly the same image, so the images pin the cameras' centres and directions far
+   less than they pin the structure between them; the sparse points are what the images
+   measured, so this fit maps the structure COLMAP saw onto the structure the true cameras see,
+   without using the true surface;
+6. rewrites the mesh with every vertex mapped by `X ↦ s·R·X + t` of each fit (binary
    little-endian PLY, the vertex element first, as `dtu_eval::ply::write` writes it; other elements
-   copied byte for byte): `--out` (centres), `--out-poses` (poses, optional);
-6. when the true scene has the simulator's `gt_mesh.ply`, reports the fraction of its vertices
+   copied byte for byte): `--out` (centres), `--out-poses` (poses, optional), `--out-points`
+   (points, optional);
+7. when the true scene has the simulator's `gt_mesh.ply`, reports the fraction of its vertices
    outside the imported scene's region of interest (the unit sphere of its `scale_mat_0`, mapped
    into the true frame): NeuS reconstructs nothing there, so a non-zero fraction means the
    importer's region cut the object.
 
 usage: colmap_align.py --colmap-scene DIR --true-scene DIR --mesh IN.ply --out OUT.ply
-                        [--out-poses OUT2.ply] [--json F]
+                        [--out-poses OUT2.ply] [--colmap-model TXT_DIR --out-points OUT3.ply]
+                        [--json F]
        colmap_align.py --self-check
 """
 
@@ -150,6 +162,82 @@ def pose_fit(cc, zc, ct, zt) -> tuple[float, np.ndarray, np.ndarray, float]:
     return s, r, t, d
 
 
+def read_text_model(model: Path) -> tuple[dict, dict, list]:
+    """COLMAP's text model (`images.txt`, `points3D.txt`; COLMAP's "Output Format" page):
+    `({image id: name}, {image id: [n, 2] keypoint pixels}, [(X [3], [(image id, keypoint index)])])`."""
+    for f in ("images.txt", "points3D.txt"):
+        if not (model / f).is_file():
+            fail(f"{model / f} is missing: --colmap-model is a text model (colmap model_converter --output_type TXT)")
+    rows = [l for l in (model / "images.txt").read_text().splitlines() if not l.startswith("#")]
+    names, keypoints = {}, {}
+    for head, pts in zip(rows[0::2], rows[1::2]):
+        f = head.split()
+        names[int(f[0])] = f[9]
+        v = pts.split()
+        keypoints[int(f[0])] = np.array(v, dtype=np.float64).reshape(-1, 3)[:, :2] if v else np.zeros((0, 2))
+    points = []
+    for line in (model / "points3D.txt").read_text().splitlines():
+        if line.startswith("#") or not line.strip():
+            continue
+        f = line.split()
+        track = [int(x) for x in f[8:]]
+        points.append((np.array(f[1:4], dtype=np.float64), list(zip(track[0::2], track[1::2]))))
+    return names, keypoints, points
+
+
+def triangulate(projections: np.ndarray, pixels: np.ndarray) -> np.ndarray | None:
+    """The point whose projections by `[k, 3, 4]` matrices best fit `[k, 2]` pixels, `k ≥ 2`, by
+    the linear (DLT) method of the module doc; each row's residual is the pixel error times the
+    point's depth in that view, so views at similar distances weigh alike. None when the views
+    cannot fix it (a point at infinity or a rank below 3)."""
+    rows = np.concatenate([pixels[:, :1] * projections[:, 2] - projections[:, 0],
+                           pixels[:, 1:] * projections[:, 2] - projections[:, 1]])
+    _, sv, vt = np.linalg.svd(rows)
+    if len(sv) < 4 or sv[2] <= 1e-9 * sv[0] or abs(vt[-1, 3]) <= 1e-12 * np.abs(vt[-1, :3]).max():
+        return None
+    return vt[-1, :3] / vt[-1, 3]
+
+
+def trimmed_umeyama(src: np.ndarray, dst: np.ndarray, keep: float = 0.9, rounds: int = 3):
+    """Umeyama on every pair, then `rounds` times on the `keep` fraction whose residual is
+    smallest. Returns `(s, R, t, [n] residuals, [n] kept)`."""
+    s, r, t = umeyama(src, dst)
+    kept = np.ones(len(src), dtype=bool)
+    for _ in range(rounds):
+        res = np.linalg.norm(dst - (s * src @ r.T + t), axis=1)
+        kept = res <= np.quantile(res, keep)
+        s, r, t = umeyama(src[kept], dst[kept])
+    return s, r, t, np.linalg.norm(dst - (s * src @ r.T + t), axis=1), kept
+
+
+def points_fit(model: Path, true_scene: Path):
+    """The "points" similarity of the module doc (step 5), COLMAP frame → true frame: returns
+    `(s, R, t, [n] residuals in the true frame's unit, [n] kept)` over the sparse points seen by
+    at least two views that the true cameras can triangulate."""
+    names, keypoints, points = read_text_model(model)
+    true_names = image_names(true_scene)
+    cams = np.load(true_scene / "cameras_sphere.npz")
+    index = {n: i for i, n in enumerate(true_names)}
+    proj = {}
+    for iid, name in names.items():
+        if Path(name).name not in index:
+            fail(f"{model}: image {name} is not in {true_scene / 'image'}")
+        proj[iid] = cams[f"world_mat_{index[Path(name).name]}"][:3, :4].astype(np.float64)
+    src, dst = [], []
+    for x, track in points:
+        if len(track) < 2:
+            continue
+        p = np.array([proj[i] for i, _ in track])
+        uv = np.array([keypoints[i][k] for i, k in track])
+        xt = triangulate(p, uv)
+        if xt is not None:
+            src.append(x)
+            dst.append(xt)
+    if len(src) < 10:
+        fail(f"{model}: only {len(src)} sparse points could be triangulated with the true cameras")
+    return trimmed_umeyama(np.array(src), np.array(dst))
+
+
 def read_vertices(src: Path) -> tuple[bytes, bytes, np.ndarray]:
     """`(file bytes, header bytes, vertex records)` of a binary little-endian PLY whose first
     element is `vertex` with scalar properties including x, y, z (module doc)."""
@@ -254,6 +342,29 @@ def self_check() -> None:
             errs[name].append(np.linalg.norm(s5 * r5 @ np.zeros(3) + t5 - t_true))  # the object, at 0
     obj_c, obj_p = np.median(errs["centres"]), np.median(errs["poses"])
     assert obj_p < 0.5 * obj_c, f"object error: poses {obj_p:.3f}, centres {obj_c:.3f}"
+    # The points fit: tracks seen by cameras around the object, COLMAP's frame a similarity of
+    # the true one; triangulation with the true cameras recovers the similarity exactly, and
+    # the trimmed fit ignores a few gross outliers.
+    k_mat = np.array([[700.0, 0.0, 200.0], [0.0, 700.0, 150.0], [0.0, 0.0, 1.0]])
+    projections = []
+    for c in cap * 500.0:
+        zc = -c / np.linalg.norm(c)
+        xc = np.cross([0.0, 1.0, 0.0], zc)
+        xc /= np.linalg.norm(xc)
+        rot = np.stack([xc, np.cross(zc, xc), zc])
+        projections.append(k_mat @ np.hstack([rot, -(rot @ c)[:, None]]))
+    projections = np.array(projections)
+    world = rng.normal(scale=40.0, size=(300, 3))
+    hom = np.einsum("vij,nj->nvi", projections, np.hstack([world, np.ones((300, 1))]))
+    pixels = hom[:, :, :2] / hom[:, :, 2:]
+    back = np.array([triangulate(projections[:5], pixels[n, :5]) for n in range(300)])
+    assert np.abs(back - world).max() < 1e-6, np.abs(back - world).max()
+    assert triangulate(projections[:1], pixels[0, :1]) is None, "one view fixed a point"
+    colmap_pts = (world - t_true) @ r_true / s_true  # the inverse similarity
+    colmap_pts[:10] += rng.normal(scale=5.0, size=(10, 3))  # ten wrong points
+    s6, r6, t6, res6, kept6 = trimmed_umeyama(colmap_pts, back)
+    assert abs(s6 - s_true) / s_true < 1e-9 and np.abs(r6 - r_true).max() < 1e-9, (s6, r6)
+    assert not kept6[:10].any() and np.median(res6) < 1e-6, (kept6[:10], np.median(res6))
     # Collinear points are refused.
     try:
         umeyama(np.outer(np.arange(5.0), [1.0, 2.0, 3.0]), dst[:5])
@@ -280,7 +391,8 @@ def self_check() -> None:
         assert list(got["red"]) == [1, 2, 3] and out.endswith(face) and len(out) == len(a.read_bytes())
     print("colmap_align self-check: ok (exact similarity to "
           f"{err:.1e}, noisy fit residual {res.mean():.3f} for noise 0.1, reflection refused, exact "
-          f"pose fit, object error on a noisy cap: poses {obj_p:.2f} vs centres {obj_c:.2f}, PLY rewrite)")
+          f"pose fit, object error on a noisy cap: poses {obj_p:.2f} vs centres {obj_c:.2f}, "
+          "triangulation and the trimmed points fit, PLY rewrite)")
 
 
 def main() -> None:
@@ -290,6 +402,8 @@ def main() -> None:
     ap.add_argument("--mesh", type=Path, help="mesh.ply of the COLMAP-posed run (its world frame)")
     ap.add_argument("--out", type=Path, help="the mesh mapped into the true frame (centres fit)")
     ap.add_argument("--out-poses", type=Path, help="the mesh mapped by the poses fit")
+    ap.add_argument("--colmap-model", type=Path, help="COLMAP's text model, for the points fit")
+    ap.add_argument("--out-points", type=Path, help="the mesh mapped by the points fit")
     ap.add_argument("--json", type=Path, help="write the similarity and residuals here")
     ap.add_argument("--self-check", action="store_true", help="test the fit and the PLY rewrite")
     args = ap.parse_args()
@@ -334,6 +448,23 @@ def main() -> None:
             "axis_angle_rms_deg": float(np.sqrt((ang**2).mean())),
         },
     }
+    if args.colmap_model:
+        s3, r3, t3, res3, kept3 = points_fit(args.colmap_model, args.true_scene)
+        if args.out_points:
+            transform_ply(args.mesh, args.out_points, s3, r3, t3)
+        report["points"] = {
+            "scale": s3,
+            "rotation": r3.tolist(),
+            "translation": t3.tolist(),
+            "points": int(len(res3)),
+            "kept": int(kept3.sum()),
+            "residual_median": float(np.median(res3)),
+            "residual_rms_kept": float(np.sqrt((res3[kept3] ** 2).mean())),
+            "rotation_from_centres_fit_deg": float(
+                np.degrees(np.arccos(np.clip((np.trace(r.T @ r3) - 1) / 2, -1.0, 1.0)))),
+        }
+    elif args.out_points:
+        ap.error("--out-points needs --colmap-model")
     gt_mesh = args.true_scene / "gt_mesh.ply"
     if gt_mesh.is_file():
         report["gt_outside_roi"] = outside_roi(args.colmap_scene, gt_mesh, s, r, t)
@@ -346,6 +477,11 @@ def main() -> None:
     print(f"poses fit (centres + axes at {p['working_distance']:.1f} mm): centre residual rms "
           f"{p['residual_rms']:.4f}, axis angle rms {p['axis_angle_rms_deg']:.4f} deg, "
           f"{p['rotation_from_centres_fit_deg']:.4f} deg from the centres fit")
+    if "points" in report:
+        q = report["points"]
+        print(f"points fit ({q['kept']} of {q['points']} sparse points): residual median "
+              f"{q['residual_median']:.4f}, rms of those kept {q['residual_rms_kept']:.4f}, "
+              f"{q['rotation_from_centres_fit_deg']:.4f} deg from the centres fit")
     if "gt_outside_roi" in report:
         print(f"{100 * report['gt_outside_roi']:.1f} % of the true surface lies outside the "
               "imported region of interest")

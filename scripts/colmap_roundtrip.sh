@@ -23,7 +23,10 @@
 #      with the similarity between the two sets of camera centres, matched by image name
 #      (Umeyama with scale: scripts/colmap_align.py, which checks itself first), and also with
 #      the similarity fitted to the whole poses (centres and viewing directions; why: that
-#      script's doc);
+#      script's doc), and with the similarity between COLMAP's sparse points and the same tracks
+#      triangulated with the true cameras (the "points" fit: it maps the structure the images
+#      measured, and does not suffer the near-ambiguity of a distant camera's centre and
+#      direction; that script's doc);
 #   6. score the meshes with the same DTU Chamfer protocol (`neus-aug eval`) against the true
 #      scene's ground truth and print: registered images, COLMAP's focal length, alignment
 #      residual, the Chamfer sums and the ratio COLMAP / true against the acceptance bound 1.3
@@ -274,7 +277,9 @@ done
 step "align$stag" python3 "$here/scripts/colmap_align.py" --colmap-scene "$sb" \
   --true-scene "$true_scene" --mesh "$work/runs/colmap$stag/mesh.ply" \
   --out "$work/runs/colmap$stag/mesh_true_frame.ply" \
-  --out-poses "$work/runs/colmap$stag/mesh_true_frame_poses.ply" --json "$work/align$stag.json"
+  --out-poses "$work/runs/colmap$stag/mesh_true_frame_poses.ply" \
+  --colmap-model "$cm/best_txt" --out-points "$work/runs/colmap$stag/mesh_true_frame_points.ply" \
+  --json "$work/align$stag.json"
 
 # --- 6. score both with the same protocol ------------------------------------------------------
 step eval-true "$bin" eval --mesh "$work/runs/true/mesh.ply" --scan "$scan" \
@@ -284,6 +289,9 @@ step "eval-colmap$stag" "$bin" eval --mesh "$work/runs/colmap$stag/mesh_true_fra
 step "eval-colmap$stag-poses" "$bin" eval \
   --mesh "$work/runs/colmap$stag/mesh_true_frame_poses.ply" --scan "$scan" \
   --gt-root "$true_scene" --seed "$seed" --json "$work/eval_colmap$stag-poses.json"
+step "eval-colmap$stag-points" "$bin" eval \
+  --mesh "$work/runs/colmap$stag/mesh_true_frame_points.ply" --scan "$scan" \
+  --gt-root "$true_scene" --seed "$seed" --json "$work/eval_colmap$stag-points.json"
 
 c_true=$(json "$work/eval_true.json" 'd["chamfer_sum"]')
 c_colmap=$(json "$work/eval_colmap$stag.json" 'd["chamfer_sum"]')
@@ -294,10 +302,10 @@ python3 - "$work" "$scene" "$preset" "$seed" "${iterations:-preset}" "$registere
 import json, sys
 work, scene, preset, seed, iters, reg, n, ct, cc, bound, wall, stag, intr, roi, fxc, fxt = sys.argv[1:]
 a = json.load(open(f"{work}/align{stag}.json"))
-et, ec, ep = (json.load(open(f"{work}/eval_{k}.json"))
-              for k in ("true", f"colmap{stag}", f"colmap{stag}-poses"))
+et, ec, ep, eq = (json.load(open(f"{work}/eval_{k}.json"))
+                  for k in ("true", f"colmap{stag}", f"colmap{stag}-poses", f"colmap{stag}-points"))
 ct, cc, bound = float(ct), float(cc), float(bound)
-ratio, cp = cc / ct, ep["chamfer_sum"]
+ratio, cp, cq = cc / ct, ep["chamfer_sum"], eq["chamfer_sum"]
 print(f"COLMAP round trip: scene {scene}, preset {preset}, seed {seed}, iterations {iters}, "
       f"intrinsics {intr}, region of interest from {roi}")
 print(f"registered images      {reg} of {n}")
@@ -316,6 +324,9 @@ print(f"Chamfer, COLMAP        {cc:.3f} mm (accuracy {ec['mean_d2s']:.3f}, compl
 print(f"ratio COLMAP / true    {ratio:.3f} (bound {bound}: {'within' if ratio <= bound else 'EXCEEDED'})")
 print(f"  aligned by the poses {cp:.3f} mm (accuracy {ep['mean_d2s']:.3f}, completeness "
       f"{ep['mean_s2d']:.3f}), ratio {cp / ct:.3f}")
+print(f"  aligned by the points {cq:.3f} mm (accuracy {eq['mean_d2s']:.3f}, completeness "
+      f"{eq['mean_s2d']:.3f}), ratio {cq / ct:.3f}; sparse points fit residual median "
+      f"{a['points']['residual_median']:.3f} mm")
 print(f"wall time              {wall} s (this invocation)")
 summary = {
     "scene": scene, "preset": preset, "seed": int(seed), "iterations": iters,
@@ -324,7 +335,8 @@ summary = {
     "centre_residual_rms_mm": a["residual_rms"], "centre_residual_max_mm": a["residual_max"],
     "gt_outside_roi": a.get("gt_outside_roi"),
     "chamfer_true_mm": ct, "chamfer_colmap_mm": cc, "chamfer_colmap_poses_mm": cp,
-    "ratio": ratio, "ratio_poses": cp / ct, "bound": bound, "within_bound": ratio <= bound,
+    "chamfer_colmap_points_mm": cq, "points_residual_median_mm": a["points"]["residual_median"],
+    "ratio": ratio, "ratio_poses": cp / ct, "ratio_points": cq / ct, "bound": bound, "within_bound": ratio <= bound,
     "wall_s": int(wall),
 }
 with open(f"{work}/summary{stag}.json", "w") as f:
