@@ -245,6 +245,18 @@ fn refinement_recovers_part_of_a_known_perturbation() {
         "{t}"
     );
     assert!(f("after_px") < 0.85 * f("before_px"), "{t}");
+    // How far refinement moved what the images see lies between the two errors' difference
+    // and their sum (the triangle inequality, point by point), in training pixels: at most
+    // the image's own, at least half of them on this scene (no downscale beyond 2).
+    let moved = m["train"]["pose_refine"]["moved_px"].as_f64().unwrap();
+    let (lo, hi) = (
+        f("before_px") - f("after_px"),
+        f("before_px") + f("after_px"),
+    );
+    assert!(
+        moved >= 0.5 * lo - 1e-9 && moved <= hi + 1e-9,
+        "moved {moved} px: {t}"
+    );
 }
 
 /// The focal scale (`train.pose_refine.focal`): on `synth --perturb-poses 0,0,5` (every focal

@@ -131,6 +131,11 @@ pub struct PoseRefineSummary {
     /// camera model (views sharing an intrinsic matrix); absent otherwise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub focal_scale: Vec<f64>,
+    /// Mean distance in training pixels (the images' own unless `data.downscale`) by which the
+    /// refined training cameras move the projections of the object's region from the imported
+    /// ones' (the grid of `truth`): how much refinement changed what the images see.
+    #[serde(default)]
+    pub moved_px: f64,
     /// Against the true cameras of a scene whose poses were perturbed (`synth
     /// --perturb-poses`): mean error of the training views before and after refinement.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -180,6 +185,7 @@ impl PoseRefineSummary {
             mean_translation: tr.iter().sum::<f64>() / n,
             max_translation: tr.iter().copied().fold(0.0, f64::max),
             focal_scale: state.focal_scales(),
+            moved_px: 0.0,
             truth: None,
         }
     }

@@ -46,6 +46,23 @@ pub(super) fn write_refined(
     for (&i, c) in p.train_idx.iter().zip(&fixed) {
         world[i] = c.denormalized(n.scale, &offset);
     }
+    // Points of the object's region: a 5³ grid over [-0.5, 0.5]³ of the normalised frame.
+    let pts: Vec<nalgebra::Vector3<f64>> = (0..125)
+        .map(|i| {
+            let g = |k: usize| (k % 5) as f64 * 0.25 - 0.5;
+            let x = nalgebra::Vector3::new(g(i), g(i / 5), g(i / 25));
+            x * n.scale + offset
+        })
+        .collect();
+    // How far refinement moved what the training images see, in their pixels (before the
+    // cameras go back to the images' own resolution below).
+    let moved: Vec<f64> = p
+        .train_idx
+        .iter()
+        .map(|&i| reprojection_px(&imported[i], &world[i], &pts))
+        .filter(|v| v.is_finite())
+        .collect();
+    let moved_px = moved.iter().sum::<f64>() / moved.len().max(1) as f64;
     // Back to the images' own pixels when the run downscaled them (`data.downscale`).
     if downscale != 1 {
         for (c, v) in world.iter_mut().zip(&p.scene.views) {
@@ -79,6 +96,7 @@ pub(super) fn write_refined(
     let model = colmap_model(&world, &names, &[]).map_err(problem)?;
     crate::import::colmap::write_text(&model, &sparse).map_err(problem)?;
     let mut summary = PoseRefineSummary::of(state, n.scale);
+    summary.moved_px = moved_px;
     let sizes: Vec<(u32, u32)> = world.iter().map(|c| (c.width, c.height)).collect();
     let truth = crate::import::perturb::read_true_cameras(&p.scene.root, &sizes).map_err(|e| {
         ReconstructError::Output {
@@ -93,14 +111,6 @@ pub(super) fn write_refined(
         let t = pick(&truth);
         let before = mean_pose_error(&ref_list(&t), &ref_list(&pick(&imported)));
         let after = mean_pose_error(&ref_list(&t), &ref_list(&pick(&world)));
-        // Points of the object's region: a 5³ grid over [-0.5, 0.5]³ of the normalised frame.
-        let pts: Vec<nalgebra::Vector3<f64>> = (0..125)
-            .map(|i| {
-                let g = |k: usize| (k % 5) as f64 * 0.25 - 0.5;
-                let x = nalgebra::Vector3::new(g(i), g(i / 5), g(i / 25));
-                x * n.scale + offset
-            })
-            .collect();
         let px = |est: &[Camera]| {
             let pairs: Vec<f64> = t
                 .iter()
