@@ -56,13 +56,11 @@ pub(super) fn write_refined(
         .collect();
     // How far refinement moved what the training images see, in their pixels (before the
     // cameras go back to the images' own resolution below).
-    let moved: Vec<f64> = p
-        .train_idx
-        .iter()
-        .map(|&i| reprojection_px(&imported[i], &world[i], &pts))
-        .filter(|v| v.is_finite())
-        .collect();
-    let moved_px = moved.iter().sum::<f64>() / moved.len().max(1) as f64;
+    let moved_px = mean_finite(
+        p.train_idx
+            .iter()
+            .map(|&i| reprojection_px(&imported[i], &world[i], &pts)),
+    );
     // Back to the images' own pixels when the run downscaled them (`data.downscale`).
     if downscale != 1 {
         for (c, v) in world.iter_mut().zip(&p.scene.views) {
@@ -112,20 +110,14 @@ pub(super) fn write_refined(
         let before = mean_pose_error(&ref_list(&t), &ref_list(&pick(&imported)));
         let after = mean_pose_error(&ref_list(&t), &ref_list(&pick(&world)));
         let px = |est: &[Camera]| {
-            let pairs: Vec<f64> = t
-                .iter()
-                .zip(est)
-                .map(|(a, b)| reprojection_px(a, &in_pixels_of(b, a), &pts))
-                .collect();
-            pairs.iter().sum::<f64>() / pairs.len().max(1) as f64
+            let pairs = t.iter().zip(est);
+            mean_finite(pairs.map(|(a, b)| reprojection_px(a, &in_pixels_of(b, a), &pts)))
         };
         let focal_pct = |est: &[Camera]| {
-            let e: Vec<f64> = t
-                .iter()
-                .zip(est)
-                .map(|(a, b)| (in_pixels_of(b, a).k[(0, 0)] / a.k[(0, 0)] - 1.0) * 100.0)
-                .collect();
-            e.iter().sum::<f64>() / e.len().max(1) as f64
+            let pairs = t.iter().zip(est);
+            mean_finite(
+                pairs.map(|(a, b)| (in_pixels_of(b, a).k[(0, 0)] / a.k[(0, 0)] - 1.0) * 100.0),
+            )
         };
         summary.truth = Some(PoseTruth {
             before_focal_pct: focal_pct(&pick(&imported)),
@@ -139,6 +131,15 @@ pub(super) fn write_refined(
         });
     }
     Ok(summary)
+}
+
+/// The mean of the finite values (a view that sees none of the points gives NaN and is left
+/// out); 0 when there are none.
+fn mean_finite(values: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = values
+        .filter(|v| v.is_finite())
+        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    sum / n.max(1) as f64
 }
 
 /// `est` in the pixels of `truth`'s images (the run may have downscaled its images by an
