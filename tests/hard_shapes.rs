@@ -128,6 +128,7 @@ fn depth_auto_switch_fires_on_a_cup_and_not_on_a_blob() {
 /// and 46 training views, see `results/geometry/seen-floor-2026-11-28`).
 #[test]
 fn the_seen_floor_cuts_what_one_camera_sees() {
+    use neus_aug::mesh::clean::SpeckRule;
     use neus_aug::reconstruct::seen_floor::{seen_floor, SeenRule};
     use neus_aug::scene::{LoadOptions, Scene};
     let tmp = tempfile::tempdir().unwrap();
@@ -146,6 +147,7 @@ fn the_seen_floor_cuts_what_one_camera_sees() {
                 min_views,
                 margin_mm: 0.0,
                 min_area_share: 0.02,
+                specks: SpeckRule::Piece,
             };
             seen_floor(
                 &truth,
@@ -170,6 +172,7 @@ fn the_seen_floor_cuts_what_one_camera_sees() {
                 min_views: 0,
                 margin_mm: 0.0,
                 min_area_share: 0.02,
+                specks: SpeckRule::Piece,
             },
             &gt,
             &params,

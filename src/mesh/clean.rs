@@ -50,7 +50,9 @@
 //!    Two follow-ups ([`split_unseen`]): a component of the closed surface of which no face is
 //!    seen is removed from the closed surface as well (a floater behind the object, which rules
 //!    1–3 keep when it is large and outside every other component), and rule 2 runs again on
-//!    the seen surface, which the cut can leave with specks.
+//!    the seen surface, which the cut can leave with specks: by default on each piece the cut
+//!    leaves; with [`SpeckRule::Part`] on each closed part's seen area, which keeps the pieces
+//!    the cut separates from a part's main piece.
 //!
 //! Faces that lose a vertex are removed; vertices no face uses are dropped and the rest renumbered
 //! in their original order, so the result is deterministic.
@@ -488,7 +490,7 @@ pub fn cull_unseen(
     min_views: usize,
     margin: f64,
 ) -> (TriMesh, usize) {
-    let cut = cull_unseen_parts(mesh, cameras, min_views, margin, 0.0);
+    let cut = cull_unseen_parts(mesh, cameras, min_views, margin, 0.0, SpeckRule::Piece);
     (cut.seen, cut.faces_unseen)
 }
 
@@ -509,13 +511,34 @@ pub struct UnseenCut {
     pub faces_in_cut_specks: usize,
 }
 
+/// How rule 4's second follow-up judges what the cut leaves (`mesh.clean_specks_by_part`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SpeckRule {
+    /// Each piece of the seen surface by its own area, against the largest piece's (rule 2 on
+    /// the cut).
+    #[default]
+    Piece,
+    /// Each part of the closed surface by the area of its seen faces, against the part with
+    /// the most: every piece of a part that passes stays, however small. The cut splits one
+    /// closed surface into pieces wherever a strip of it goes unseen (under a limb, inside a
+    /// fold), and each piece is surface that two cameras see, while a floater is a part of its
+    /// own whose seen share is small.
+    Part,
+}
+
 /// Rule 4 with its two follow-ups, from per-face `seen` flags of a closed cleaned mesh:
 /// - a component of the closed surface of which no face is seen goes from the closed surface
 ///   too (a floater behind the object, that rules 1–3 keep because it is large and outside
 ///   every other component);
-/// - rule 2 runs again on the seen surface with the same `min_area_share`: the cut leaves specks
-///   where a few faces are seen among unseen ones.
-pub fn split_unseen(mesh: &TriMesh, seen: &[bool], min_area_share: f64) -> UnseenCut {
+/// - rule 2 runs again on what is seen with the same `min_area_share`: the cut leaves specks
+///   where a few faces are seen among unseen ones. `specks` says what it compares
+///   ([`SpeckRule`]).
+pub fn split_unseen(
+    mesh: &TriMesh,
+    seen: &[bool],
+    min_area_share: f64,
+    specks: SpeckRule,
+) -> UnseenCut {
     assert_eq!(seen.len(), mesh.faces.len(), "one flag per face");
     let (labels, n) = face_components(mesh);
     let mut any_seen = vec![false; n];
@@ -525,8 +548,32 @@ pub fn split_unseen(mesh: &TriMesh, seen: &[bool], min_area_share: f64) -> Unsee
     let keep_closed: Vec<bool> = labels.iter().map(|&l| any_seen[l as usize]).collect();
     let closed = keep_faces(mesh, &keep_closed);
     let cut = keep_faces(mesh, seen);
-    let (keep_cut, _, specks) = small_component_filter(&cut, min_area_share);
-    let seen_mesh = keep_faces(&cut, &keep_cut);
+    let (seen_mesh, specks) = match specks {
+        SpeckRule::Piece => {
+            let (keep_cut, _, dropped) = small_component_filter(&cut, min_area_share);
+            (keep_faces(&cut, &keep_cut), dropped)
+        }
+        SpeckRule::Part => {
+            let mut seen_area = vec![0.0f64; n];
+            for ((f, &l), &s) in mesh.faces.iter().zip(&labels).zip(seen) {
+                if s {
+                    seen_area[l as usize] += face_area(mesh, f);
+                }
+            }
+            let largest = seen_area.iter().cloned().fold(0.0, f64::max);
+            let keep_part: Vec<bool> = seen_area
+                .iter()
+                .map(|&a| a >= min_area_share * largest)
+                .collect();
+            let keep: Vec<bool> = labels
+                .iter()
+                .zip(seen)
+                .map(|(&l, &s)| s && keep_part[l as usize])
+                .collect();
+            let dropped = (0..n).filter(|&c| any_seen[c] && !keep_part[c]).count();
+            (keep_faces(mesh, &keep), dropped)
+        }
+    };
     UnseenCut {
         faces_unseen: mesh.faces.len() - cut.faces.len(),
         unseen_components_removed: any_seen.iter().filter(|s| !**s).count(),
@@ -556,14 +603,16 @@ pub fn cull_unseen_parts(
     min_views: usize,
     margin: f64,
     min_area_share: f64,
+    specks: SpeckRule,
 ) -> UnseenCut {
     if min_views == 0 || cameras.is_empty() {
-        return split_unseen(mesh, &vec![true; mesh.faces.len()], 0.0);
+        return split_unseen(mesh, &vec![true; mesh.faces.len()], 0.0, specks);
     }
     split_unseen(
         mesh,
         &seen_faces(mesh, cameras, min_views, margin),
         min_area_share,
+        specks,
     )
 }
 

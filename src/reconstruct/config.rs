@@ -203,6 +203,30 @@ pub struct MeshConfig {
     /// mm, centroid to centroid) of one: surface that a camera sees only at a grazing angle can
     /// turn away from it in the reconstruction by a few degrees of normal error.
     pub clean_visible_margin_mm: f64,
+    /// After rule 4's cut, judge what is left by closed part rather than by piece
+    /// (`mesh::clean::SpeckRule::Part`): a part whose seen area is below `clean_min_area_share`
+    /// of the most-seen part's goes, and every piece of the others stays. `false` (the default)
+    /// drops each piece below that share of the largest piece, which also drops true surface
+    /// the cut separated from the rest (a strip seen between unseen ones). Left out of
+    /// `config.toml` when off, so the configurations of earlier runs keep their hashes.
+    #[serde(skip_serializing_if = "is_false")]
+    pub clean_specks_by_part: bool,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+impl MeshConfig {
+    /// What rule 4's second follow-up compares (`clean_specks_by_part`).
+    pub fn speck_rule(&self) -> crate::mesh::clean::SpeckRule {
+        use crate::mesh::clean::SpeckRule;
+        if self.clean_specks_by_part {
+            SpeckRule::Part
+        } else {
+            SpeckRule::Piece
+        }
+    }
 }
 
 impl Default for MeshConfig {
@@ -219,6 +243,7 @@ impl Default for MeshConfig {
             clean_enclosed: true,
             clean_min_visible_views: 2,
             clean_visible_margin_mm: 0.0,
+            clean_specks_by_part: false,
         }
     }
 }
@@ -763,6 +788,18 @@ mod tests {
             Holdout::Views(vec![3, 1, 3]).indices(5).unwrap(),
             vec![1, 3]
         );
+    }
+
+    #[test]
+    fn the_speck_rule_key_is_written_only_when_on_and_reads_back() {
+        let mut c = Preset::Fast.config();
+        assert!(!c.to_toml().contains("clean_specks_by_part"));
+        c.mesh.clean_specks_by_part = true;
+        let text = c.to_toml();
+        assert!(text.contains("clean_specks_by_part = true"), "{text}");
+        let back = RunConfig::from_saved_toml(&text, "test").unwrap();
+        assert_eq!(back.mesh.speck_rule(), crate::mesh::clean::SpeckRule::Part);
+        assert_eq!(back.training_hash(), Preset::Fast.config().training_hash());
     }
 
     #[test]

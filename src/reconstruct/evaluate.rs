@@ -88,6 +88,7 @@ pub(super) fn evaluate(
                             min_views: cfg.mesh.clean_min_visible_views,
                             margin_mm: cfg.mesh.clean_visible_margin_mm,
                             min_area_share: cfg.mesh.clean_min_area_share,
+                            specks: cfg.mesh.speck_rule(),
                         };
                         let (norm, cams) = (&p.scene.normalization, p.cameras());
                         seen_floor::seen_floor(gt_mesh, norm, &cams, &rule, &gt, &params, cfg.seed)

@@ -103,6 +103,7 @@ pub fn clean_cut(
         cfg.mesh.clean_min_visible_views,
         margin,
         cfg.mesh.clean_min_area_share,
+        cfg.mesh.speck_rule(),
     );
     rep.faces_unseen = cut.faces_unseen;
     rep.unseen_components_removed = cut.unseen_components_removed;

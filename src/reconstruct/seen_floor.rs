@@ -18,7 +18,7 @@
 //! the cut then follows the visible region to about a millimetre, as it does on a
 //! reconstruction (marching-cubes cells of 0.5–1 mm at the presets' `mesh.fine_res`).
 
-use crate::mesh::clean::{seen_faces, split_unseen, surface_area};
+use crate::mesh::clean::{seen_faces, split_unseen, surface_area, SpeckRule};
 use crate::mesh::subdivide::subdivide_to;
 use crate::mesh::TriMesh;
 use crate::scene::dtu::Normalization;
@@ -34,13 +34,15 @@ pub const EDGE_MM: f64 = 1.0;
 pub const MAX_FACES: usize = 600_000;
 
 /// Rule 4's settings (`mesh.clean_min_visible_views`, `mesh.clean_visible_margin_mm`,
-/// `mesh.clean_min_area_share`).
+/// `mesh.clean_min_area_share`, `mesh.clean_specks_by_part`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SeenRule {
     pub min_views: usize,
     /// World mm.
     pub margin_mm: f64,
     pub min_area_share: f64,
+    /// `mesh.clean_specks_by_part`.
+    pub specks: SpeckRule,
 }
 
 /// The seen floor (module docs), world mm.
@@ -111,7 +113,7 @@ pub fn seen_floor(
             flags.extend_from_slice(&seen_fine[pieces]);
         }
     }
-    let seen = split_unseen(&mixed, &flags, rule.min_area_share).seen;
+    let seen = split_unseen(&mixed, &flags, rule.min_area_share, rule.specks).seen;
     if seen.faces.is_empty() {
         return Ok(None);
     }

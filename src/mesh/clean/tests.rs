@@ -85,7 +85,7 @@ fn unseen_components_and_the_cuts_specks_go() {
         })
         .collect();
     let n_seen_a = (0..nf).filter(|&i| cx(&m.faces[i]) > 0.43).count();
-    let cut = split_unseen(&m, &seen, 0.02);
+    let cut = split_unseen(&m, &seen, 0.02, SpeckRule::Piece);
     assert_eq!(
         (
             cut.unseen_components_removed,
@@ -104,8 +104,14 @@ fn unseen_components_and_the_cuts_specks_go() {
     assert_eq!(cut.seen.faces.len(), n_seen_a);
     assert_eq!(cut.faces_unseen, m.faces.len() - n_seen_a - 1);
     // Share 0 keeps the speck; all seen keeps everything.
-    assert_eq!(split_unseen(&m, &seen, 0.0).seen.faces.len(), n_seen_a + 1);
-    let all = split_unseen(&m, &vec![true; m.faces.len()], 0.02);
+    assert_eq!(
+        split_unseen(&m, &seen, 0.0, SpeckRule::Piece)
+            .seen
+            .faces
+            .len(),
+        n_seen_a + 1
+    );
+    let all = split_unseen(&m, &vec![true; m.faces.len()], 0.02, SpeckRule::Piece);
     assert_eq!(
         (
             all.seen.faces.len(),
@@ -113,6 +119,62 @@ fn unseen_components_and_the_cuts_specks_go() {
             all.faces_unseen
         ),
         (m.faces.len(), m.faces.len(), 0)
+    );
+}
+
+#[test]
+fn by_part_the_cut_keeps_a_small_seen_piece_of_a_part_and_drops_a_floaters_speck() {
+    // Sphere A (x > 0): its far half seen, and apart from it the one face nearest the other
+    // sphere, so the cut leaves A in two pieces. Sphere B (x < 0): one seen face, a floater.
+    let m = shape_mesh("two-spheres", 24);
+    let cx = |i: usize| centroid(&m, &m.faces[i]).x;
+    let tip = (0..m.faces.len())
+        .filter(|&i| cx(i) > 0.0)
+        .min_by(|&i, &j| cx(i).total_cmp(&cx(j)))
+        .unwrap();
+    let b_face = (0..m.faces.len()).find(|&i| cx(i) < 0.0).unwrap();
+    let seen: Vec<bool> = (0..m.faces.len())
+        .map(|i| cx(i) > 0.43 || i == tip || i == b_face)
+        .collect();
+    let cap = (0..m.faces.len()).filter(|&i| cx(i) > 0.43).count();
+    let (_, pieces) = face_components(&keep_faces(&m, &seen));
+    assert_eq!(pieces, 3, "A's half, A's tip face and B's face");
+    let piece = split_unseen(&m, &seen, 0.02, SpeckRule::Piece);
+    assert_eq!(
+        piece.seen.faces.len(),
+        cap,
+        "by piece both one-face pieces go"
+    );
+    assert_eq!(piece.cut_specks_removed, 2);
+    let part = split_unseen(&m, &seen, 0.02, SpeckRule::Part);
+    assert_eq!(
+        part.seen.faces.len(),
+        cap + 1,
+        "by part A's tip stays, B's face goes"
+    );
+    assert_eq!((part.cut_specks_removed, part.faces_in_cut_specks), (1, 1));
+    let kept = keep_faces(
+        &m,
+        &(0..m.faces.len())
+            .map(|i| i != b_face && seen[i])
+            .collect::<Vec<_>>(),
+    );
+    assert_eq!(
+        part.seen.vertices, kept.vertices,
+        "the same faces, in the input's order"
+    );
+    assert_eq!(part.seen.faces, kept.faces);
+    assert_eq!(part.closed.faces.len(), piece.closed.faces.len());
+    assert_eq!(part.faces_unseen, piece.faces_unseen);
+    // Everything seen: nothing goes; share 0 keeps B's face too.
+    let all = split_unseen(&m, &vec![true; m.faces.len()], 0.02, SpeckRule::Part);
+    assert_eq!(all.seen.faces.len(), m.faces.len());
+    assert_eq!(
+        split_unseen(&m, &seen, 0.0, SpeckRule::Part)
+            .seen
+            .faces
+            .len(),
+        cap + 2
     );
 }
 
