@@ -197,21 +197,34 @@ pub fn keep_faces(mesh: &TriMesh, keep: &[bool]) -> TriMesh {
 /// Also returns the number of components and how many were dropped.
 pub fn small_component_filter(mesh: &TriMesh, min_area_share: f64) -> (Vec<bool>, usize, usize) {
     let (labels, n) = face_components(mesh);
-    let mut area = vec![0.0f64; n];
-    for (f, &l) in mesh.faces.iter().zip(&labels) {
-        area[l as usize] += face_area(mesh, f);
-    }
-    let largest = area.iter().cloned().fold(0.0, f64::max);
-    let keep_comp: Vec<bool> = area
-        .iter()
-        .map(|&a| a >= min_area_share * largest)
-        .collect();
+    let keep_comp = components_by_area(mesh, &labels, n, |_| true, min_area_share);
     let dropped = keep_comp.iter().filter(|k| !**k).count();
     (
         labels.iter().map(|&l| keep_comp[l as usize]).collect(),
         n,
         dropped,
     )
+}
+
+/// Per component (`labels`: one of `0..n` per face): whether the area of its faces that
+/// `counted` admits (by face index) reaches `min_area_share` of the largest such area.
+fn components_by_area(
+    mesh: &TriMesh,
+    labels: &[u32],
+    n: usize,
+    counted: impl Fn(usize) -> bool,
+    min_area_share: f64,
+) -> Vec<bool> {
+    let mut area = vec![0.0f64; n];
+    for (i, (f, &l)) in mesh.faces.iter().zip(labels).enumerate() {
+        if counted(i) {
+            area[l as usize] += face_area(mesh, f);
+        }
+    }
+    let largest = area.iter().cloned().fold(0.0, f64::max);
+    area.iter()
+        .map(|&a| a >= min_area_share * largest)
+        .collect()
 }
 
 /// Solid angle (steradians, signed by the triangle's orientation) that the triangle `a b c`
@@ -554,17 +567,7 @@ pub fn split_unseen(
             (keep_faces(&cut, &keep_cut), dropped)
         }
         SpeckRule::Part => {
-            let mut seen_area = vec![0.0f64; n];
-            for ((f, &l), &s) in mesh.faces.iter().zip(&labels).zip(seen) {
-                if s {
-                    seen_area[l as usize] += face_area(mesh, f);
-                }
-            }
-            let largest = seen_area.iter().cloned().fold(0.0, f64::max);
-            let keep_part: Vec<bool> = seen_area
-                .iter()
-                .map(|&a| a >= min_area_share * largest)
-                .collect();
+            let keep_part = components_by_area(mesh, &labels, n, |i| seen[i], min_area_share);
             let keep: Vec<bool> = labels
                 .iter()
                 .zip(seen)
