@@ -140,6 +140,10 @@ pub struct PoseRefineSummary {
     /// --perturb-poses`): mean error of the training views before and after refinement.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub truth: Option<PoseTruth>,
+    /// With the gate (`train.pose_refine.gate`): the steps listened, whether it decided, the
+    /// views it let move and the median of its statistic; absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gate: Option<crate::train::pose_refine::GateSummary>,
 }
 
 /// Mean pose error of the training views against the truth (`import::perturb::pose_error`),
@@ -187,6 +191,7 @@ impl PoseRefineSummary {
             focal_scale: state.focal_scales(),
             moved_px: 0.0,
             truth: None,
+            gate: state.gate.as_ref().map(|g| g.summary()),
         }
     }
 }

@@ -12,7 +12,8 @@
 //! - with pose refinement (`train.pose_refine`), `pose.state`: f64 `[views, 18]`, each view's
 //!   correction `ω, t` and their Adam moments (metadata `pose_t`: Adam's steps); with the focal
 //!   learned too (`train.pose_refine.focal`), `pose.focal`: f64 `[camera models, 3]`, each
-//!   model's focal log scale `φ` and its moments.
+//!   model's focal log scale `φ` and its moments; with the gate (`train.pose_refine.gate`),
+//!   `pose.gate`: f64 `[views, 14]`, what it heard and decided.
 //!
 //! Metadata (strings): `format` = `neus-aug-checkpoint-1`, `step` (completed steps), `adam_t`,
 //! `num_rays` (the dynamic ray count), `skipped_steps`, `config_hash` (of the resolved run
@@ -20,7 +21,7 @@
 
 use super::adam::AdamW;
 use super::error_map::{ErrorMap, ErrorMapConfig};
-use super::pose_refine::PoseState;
+use super::pose_refine::{Gate, PoseState};
 
 /// The tensor of pose refinement's state: `[views][18]` f64 rows `ω, t, m, v`
 /// ([`PoseState::to_rows`]).
@@ -28,6 +29,9 @@ const POSE_TENSOR: &str = "pose.state";
 /// The tensor of the learned focal scales: `[models][3]` f64 rows `φ, m, v`
 /// ([`PoseState::focal_rows`]); absent when the focal is not learned.
 const FOCAL_TENSOR: &str = "pose.focal";
+/// The tensor of pose refinement's gate (`train.pose_refine.gate`): `[views][14]` f64 rows
+/// ([`super::pose_refine::Gate::to_rows`]); absent without the gate.
+const GATE_TENSOR: &str = "pose.gate";
 use crate::field::ParamLayout;
 use crate::render::occupancy::OccupancyGrid;
 use safetensors::tensor::{Dtype, TensorView};
@@ -153,6 +157,9 @@ pub fn save(
         push_rows(POSE_TENSOR, ps.to_rows(), 18);
         if !ps.focal.is_empty() {
             push_rows(FOCAL_TENSOR, ps.focal_rows(), 3);
+        }
+        if let Some(g) = &ps.gate {
+            push_rows(GATE_TENSOR, g.to_rows(), 14);
         }
     }
     let views: Vec<(String, TensorView)> = owned
@@ -363,13 +370,20 @@ pub fn load(
                 Some(shape) => return Err(invalid(format!("tensor {FOCAL_TENSOR} is {shape:?}"))),
                 None => Vec::new(),
             };
-            Some(
-                PoseState::from_rows(&rows, &focal, num("pose_t")?).ok_or_else(|| {
+            let mut ps = PoseState::from_rows(&rows, &focal, num("pose_t")?).ok_or_else(|| {
+                invalid(format!(
+                    "tensor {POSE_TENSOR} or {FOCAL_TENSOR}: a value is not finite"
+                ))
+            })?;
+            if st.tensor(GATE_TENSOR).is_ok() {
+                let rows = f64s(tensor(GATE_TENSOR, Dtype::F64, &[views, 14])?);
+                ps.gate = Some(Gate::from_rows(&rows, views).ok_or_else(|| {
                     invalid(format!(
-                        "tensor {POSE_TENSOR} or {FOCAL_TENSOR}: a value is not finite"
+                        "tensor {GATE_TENSOR}: a value is not finite or the rows disagree"
                     ))
-                })?,
-            )
+                })?);
+            }
+            Some(ps)
         }
     };
     Ok(TrainState {

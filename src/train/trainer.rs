@@ -9,7 +9,7 @@ use super::depth::{DepthConfig, DepthPrior, DepthStep};
 use super::error_map::{ErrorMap, ErrorMapConfig};
 use super::hull::InitConfig;
 use super::loss::{StepOutput, StepSinks, Targets, TrainStep};
-use super::pose_refine::{PoseRefineConfig, PoseRefiner, PoseState, PoseStep};
+use super::pose_refine::{PoseRefineConfig, PoseRefiner, PoseStep};
 use super::schedule::LrSchedule;
 use crate::render::model::{ModelError, NeusModel, RayBatch};
 use crate::scene::Camera;
@@ -201,10 +201,7 @@ impl<'a> Trainer<'a> {
                 .error_map
                 .enabled()
                 .then(|| ErrorMap::new(&self.config.error_map, &self.data.sizes())),
-            pose: self
-                .pose
-                .as_ref()
-                .map(|r| PoseState::new(r.n_views(), r.n_focal())),
+            pose: self.pose.as_ref().map(|r| r.new_state()),
         }
     }
 
@@ -236,6 +233,14 @@ impl<'a> Trainer<'a> {
         );
         let refine = match (self.pose.as_mut(), state.pose.as_ref()) {
             (Some(r), Some(ps)) => {
+                if r.gated() != ps.gate.is_some() {
+                    return Err(TrainError::State(format!(
+                        "pose refinement's gate is {} but the training state {} its sums (a \
+                         checkpoint from another configuration?)",
+                        if r.gated() { "on" } else { "off" },
+                        if ps.gate.is_some() { "holds" } else { "lacks" }
+                    )));
+                }
                 if (ps.corrections.len(), ps.focal.len()) != (r.n_views(), r.n_focal()) {
                     return Err(TrainError::State(format!(
                         "the training state holds corrections of {} views and {} focal scales; \
@@ -289,7 +294,7 @@ impl<'a> Trainer<'a> {
             step_seed(self.seed, step, Stream::Jitter),
             StepSinks {
                 ray_errors: sink,
-                ray_grads: self.pose.as_ref().map(|r| r.cells()),
+                ray_grads: self.pose.as_ref().and_then(|r| r.wanted_cells()),
             },
         )?;
         if let (Some(m), Some(errors)) = (state.error_map.as_mut(), sink) {
