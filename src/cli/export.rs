@@ -99,25 +99,25 @@ fn run_config(run: &Path) -> anyhow::Result<RunConfig> {
 }
 
 /// `reconstruct`'s mesh phase at refined resolution `fine_res`: two-pass marching cubes, the
-/// clean-up and the cut to the faces the training cameras see, mapped to world mm.
+/// clean-up and the cut to the faces the training cameras see, mapped to world mm. `cameras`:
+/// the training cameras in training order (normalised frame), as the run refined them.
 fn extract(
     cfg: &RunConfig,
     model: &NeusModel,
     params: &[f32],
     step: u64,
     scene: &Scene,
+    cameras: &[Camera],
     fine_res: usize,
 ) -> anyhow::Result<dtu_eval::mesh::TriMesh> {
     let raw = marching_cubes_of(cfg, model, params, step, fine_res)?;
     let train = training_views(cfg, scene.views.len())?;
     let masked: Vec<(&Camera, &GrayImage)> = train
         .iter()
-        .filter_map(|&i| {
-            let v = &scene.views[i];
-            v.mask.as_ref().map(|m| (&v.camera, m))
-        })
+        .zip(cameras)
+        .filter_map(|(&i, c)| scene.views[i].mask.as_ref().map(|m| (c, m)))
         .collect();
-    let cameras: Vec<&Camera> = train.iter().map(|&i| &scene.views[i].camera).collect();
+    let cameras: Vec<&Camera> = cameras.iter().collect();
     let (_, mut mesh, _, _) = clean_cut(cfg, &raw, &masked, &cameras, scene.normalization.scale);
     to_world(&mut mesh, &scene.normalization);
     Ok(mesh)
@@ -181,13 +181,17 @@ pub fn run(args: ExportArgs) -> anyhow::Result<()> {
         },
     )?;
     let model = NeusModel::new(cfg.model.clone())?;
+    let train = training_views(&cfg, scene.views.len())?;
+    // With pose refinement the checkpoint holds the corrections; the clean-up judges the masks
+    // and the visibility with the refined cameras, as `reconstruct` does.
+    let refined = cfg.train.pose_refine.enabled.then_some(train.len());
     let state = checkpoint::load(
         &ckpt,
         &model.layout,
         &cfg.train.optimizer,
         &cfg.training_hash(),
         None,
-        None,
+        refined,
     )
     .with_context(|| {
         format!(
@@ -206,8 +210,15 @@ pub fn run(args: ExportArgs) -> anyhow::Result<()> {
             ),
         );
     }
+    let imported: Vec<Camera> = train
+        .iter()
+        .map(|&i| scene.views[i].camera.clone())
+        .collect();
+    let cameras = match &state.pose {
+        Some(ps) => ps.corrected(&imported),
+        None => imported,
+    };
     let sched = model.config.inference_schedule(state.step);
-    let train = training_views(&cfg, scene.views.len())?;
     let field = SurfaceField::new(&model, &state.params, sched)?.with_view(
         args.view_direction
             .map_or(cfg.export.view_direction, Into::into),
@@ -217,7 +228,15 @@ pub fn run(args: ExportArgs) -> anyhow::Result<()> {
     let t_mesh = Instant::now();
     let (mesh, mesh_src) = match args.resolution {
         Some(res) => (
-            extract(&cfg, &model, &state.params, state.step, &scene, res)?,
+            extract(
+                &cfg,
+                &model,
+                &state.params,
+                state.step,
+                &scene,
+                &cameras,
+                res,
+            )?,
             PathBuf::from(format!("the mesh extracted at resolution {res}")),
         ),
         None => {

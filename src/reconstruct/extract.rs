@@ -115,20 +115,29 @@ pub fn clean_cut(
 }
 
 /// Stage 5: the clean-up of `raw` (rules 1–3, then rule 4's cut to what the training cameras
-/// see), in world mm, written to `out`. An empty result is an error that names the cause.
+/// see), in world mm, written to `out`. `cameras`: the training cameras in training order
+/// (normalised frame), as refined when pose refinement ran: the masks and the visibility are
+/// judged where training put each view. An empty result is an error that names the cause.
 pub(super) fn clean_and_write(
     cfg: &RunConfig,
     p: &Prepared,
+    cameras: &[Camera],
     raw: TriMesh,
     out: &Path,
     quiet: bool,
     t: Instant,
 ) -> Result<Meshes, ReconstructError> {
     let topo_raw = TopologyReport::of(&raw);
-    let cameras: Vec<&Camera> = p.cameras();
     let scale = p.scene.normalization.scale;
+    let masked: Vec<(&Camera, &GrayImage)> = p
+        .train_idx
+        .iter()
+        .zip(cameras)
+        .filter_map(|(&i, c)| p.scene.views[i].mask.as_ref().map(|m| (c, m)))
+        .collect();
+    let cameras: Vec<&Camera> = cameras.iter().collect();
     let (mut closed, mut mesh, mut clean, unseen_faces) =
-        clean_cut(cfg, &raw, &p.masked_views(), &cameras, scale);
+        clean_cut(cfg, &raw, &masked, &cameras, scale);
     let norm = &p.scene.normalization;
     to_world(&mut closed, norm);
     to_world(&mut mesh, norm);

@@ -65,7 +65,7 @@ pub use scene_ref::{resolve_scene, ResolvedScene, SceneKind};
 use crate::augment::AugmentError;
 use crate::mesh::McError;
 use crate::render::model::ModelError;
-use crate::scene::SceneError;
+use crate::scene::{Camera, SceneError};
 use crate::sim::SimError;
 use crate::train::checkpoint::CheckpointError;
 use crate::train::data::DataError;
@@ -197,7 +197,13 @@ fn finish(
     let trained = training::train(cfg, p, folder, opts)?;
     let t = Instant::now();
     let raw = extract::extract(cfg, p, &trained.state)?;
-    let meshes = extract::clean_and_write(cfg, p, raw, &folder.out, quiet, t)?;
+    // The training cameras where training left them: refined, when pose refinement ran.
+    let imported: Vec<Camera> = p.cameras().into_iter().cloned().collect();
+    let cameras = match &trained.state.pose {
+        Some(ps) => ps.corrected(&imported),
+        None => imported,
+    };
+    let meshes = extract::clean_and_write(cfg, p, &cameras, raw, &folder.out, quiet, t)?;
     let mut ev = evaluate::evaluate(cfg, p, &meshes, &folder.out, quiet)?;
     let truth_mesh = ev.truth_mesh.take();
     let views = heldout::render_heldout(cfg, p, &trained.state, truth_mesh, &folder.out, quiet)?;
