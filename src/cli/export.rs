@@ -5,10 +5,11 @@ use anyhow::{bail, Context};
 use neus_aug::export::{self, check, ExportError, Formats, SurfaceField, ViewDirection};
 use neus_aug::mesh::to_world;
 use neus_aug::reconstruct::{
-    clean_cut, config::MAX_MESH_RES, marching_cubes_of, resolve_scene, training_views, RunConfig,
+    clean_cut, config::MAX_MESH_RES, marching_cubes_of, masked_views, resolve_scene,
+    trained_cameras, training_views, RunConfig,
 };
 use neus_aug::render::model::NeusModel;
-use neus_aug::scene::{Camera, GrayImage, LoadOptions, Scene};
+use neus_aug::scene::{Camera, LoadOptions, Scene};
 use neus_aug::train::checkpoint;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -112,11 +113,7 @@ fn extract(
 ) -> anyhow::Result<dtu_eval::mesh::TriMesh> {
     let raw = marching_cubes_of(cfg, model, params, step, fine_res)?;
     let train = training_views(cfg, scene.views.len())?;
-    let masked: Vec<(&Camera, &GrayImage)> = train
-        .iter()
-        .zip(cameras)
-        .filter_map(|(&i, c)| scene.views[i].mask.as_ref().map(|m| (c, m)))
-        .collect();
+    let masked = masked_views(scene, &train, cameras);
     let cameras: Vec<&Camera> = cameras.iter().collect();
     let (_, mut mesh, _, _) = clean_cut(cfg, &raw, &masked, &cameras, scene.normalization.scale);
     to_world(&mut mesh, &scene.normalization);
@@ -210,14 +207,7 @@ pub fn run(args: ExportArgs) -> anyhow::Result<()> {
             ),
         );
     }
-    let imported: Vec<Camera> = train
-        .iter()
-        .map(|&i| scene.views[i].camera.clone())
-        .collect();
-    let cameras = match &state.pose {
-        Some(ps) => ps.corrected(&imported),
-        None => imported,
-    };
+    let cameras = trained_cameras(&scene, &train, state.pose.as_ref());
     let sched = model.config.inference_schedule(state.step);
     let field = SurfaceField::new(&model, &state.params, sched)?.with_view(
         args.view_direction

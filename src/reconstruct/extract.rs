@@ -8,8 +8,9 @@ use super::{io_err, say, ReconstructError, RunConfig};
 use crate::mesh::clean::{clean_mesh, cull_unseen_parts, CleanOptions, CleanReport};
 use crate::mesh::{extract_two_pass, to_world, McOptions, TopologyReport, TriMesh, TwoPassOptions};
 use crate::render::model::NeusModel;
-use crate::scene::{Camera, GrayImage};
+use crate::scene::{Camera, GrayImage, Scene};
 use crate::train::checkpoint::TrainState;
+use crate::train::pose_refine::PoseState;
 use std::path::Path;
 use std::time::Instant;
 
@@ -114,6 +115,35 @@ pub fn clean_cut(
     (cut.closed, cut.seen, Some(rep), cut.faces_unseen)
 }
 
+/// The training views `train` (indices into `scene.views`, training order) that have a mask,
+/// each with its camera from `cameras` (the same order): what the visual hull carves with and
+/// the clean-up culls with.
+pub fn masked_views<'a>(
+    scene: &'a Scene,
+    train: &[usize],
+    cameras: impl IntoIterator<Item = &'a Camera>,
+) -> Vec<(&'a Camera, &'a GrayImage)> {
+    train
+        .iter()
+        .zip(cameras)
+        .filter_map(|(&i, c)| scene.views[i].mask.as_ref().map(|m| (c, m)))
+        .collect()
+}
+
+/// The cameras (normalised frame) of the training views `train` where training left them:
+/// corrected by pose refinement's state `pose` when it ran ([`PoseState::corrected`]), the
+/// imported ones otherwise (exactly, also where refinement moved no camera).
+pub fn trained_cameras(scene: &Scene, train: &[usize], pose: Option<&PoseState>) -> Vec<Camera> {
+    let imported: Vec<Camera> = train
+        .iter()
+        .map(|&i| scene.views[i].camera.clone())
+        .collect();
+    match pose {
+        Some(ps) => ps.corrected(&imported),
+        None => imported,
+    }
+}
+
 /// Stage 5: the clean-up of `raw` (rules 1–3, then rule 4's cut to what the training cameras
 /// see), in world mm, written to `out`. `cameras`: the training cameras in training order
 /// (normalised frame), as refined when pose refinement ran: the masks and the visibility are
@@ -129,12 +159,7 @@ pub(super) fn clean_and_write(
 ) -> Result<Meshes, ReconstructError> {
     let topo_raw = TopologyReport::of(&raw);
     let scale = p.scene.normalization.scale;
-    let masked: Vec<(&Camera, &GrayImage)> = p
-        .train_idx
-        .iter()
-        .zip(cameras)
-        .filter_map(|(&i, c)| p.scene.views[i].mask.as_ref().map(|m| (c, m)))
-        .collect();
+    let masked = masked_views(&p.scene, &p.train_idx, cameras);
     let cameras: Vec<&Camera> = cameras.iter().collect();
     let (mut closed, mut mesh, mut clean, unseen_faces) =
         clean_cut(cfg, &raw, &masked, &cameras, scale);

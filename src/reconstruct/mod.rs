@@ -52,7 +52,7 @@ pub use config::{
     parse_set, resolve, resolve_resume, ConfigError, DataConfig, EvalConfig, Holdout, MeshConfig,
     Preset, RunConfig,
 };
-pub use extract::{clean_cut, marching_cubes_of};
+pub use extract::{clean_cut, marching_cubes_of, masked_views, trained_cameras};
 pub use lock::{LockError, RunLock, LOCK_FILE};
 pub use metrics::{
     ChamferMetrics, HullInitSummary, MeshSummary, Metrics, Timings, TrainSummary, ViewMetrics,
@@ -65,7 +65,7 @@ pub use scene_ref::{resolve_scene, ResolvedScene, SceneKind};
 use crate::augment::AugmentError;
 use crate::mesh::McError;
 use crate::render::model::ModelError;
-use crate::scene::{Camera, SceneError};
+use crate::scene::SceneError;
 use crate::sim::SimError;
 use crate::train::checkpoint::CheckpointError;
 use crate::train::data::DataError;
@@ -197,12 +197,7 @@ fn finish(
     let trained = training::train(cfg, p, folder, opts)?;
     let t = Instant::now();
     let raw = extract::extract(cfg, p, &trained.state)?;
-    // The training cameras where training left them: refined, when pose refinement ran.
-    let imported: Vec<Camera> = p.cameras().into_iter().cloned().collect();
-    let cameras = match &trained.state.pose {
-        Some(ps) => ps.corrected(&imported),
-        None => imported,
-    };
+    let cameras = extract::trained_cameras(&p.scene, &p.train_idx, trained.state.pose.as_ref());
     let meshes = extract::clean_and_write(cfg, p, &cameras, raw, &folder.out, quiet, t)?;
     let mut ev = evaluate::evaluate(cfg, p, &meshes, &folder.out, quiet)?;
     let truth_mesh = ev.truth_mesh.take();

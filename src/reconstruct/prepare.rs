@@ -51,16 +51,10 @@ impl Prepared {
             .collect()
     }
 
-    /// The training views that have a mask, with their cameras: the visual hull carves them,
-    /// the mesh clean-up culls with them.
+    /// The training views that have a mask, with their imported cameras: the visual hull
+    /// carves them ([`super::extract::masked_views`]).
     pub fn masked_views(&self) -> Vec<(&Camera, &GrayImage)> {
-        self.train_idx
-            .iter()
-            .filter_map(|&i| {
-                let v = &self.scene.views[i];
-                v.mask.as_ref().map(|m| (&v.camera, m))
-            })
-            .collect()
+        super::extract::masked_views(&self.scene, &self.train_idx, self.cameras())
     }
 }
 
