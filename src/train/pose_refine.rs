@@ -536,10 +536,6 @@ impl PoseRefiner {
         iterations: u64,
     ) -> PoseStep {
         let lr = self.config.lr_at(step, iterations);
-        let mut report = PoseStep {
-            lr,
-            ..Default::default()
-        };
         let n = state.corrections.len();
         let listening = state.gate.as_ref().is_some_and(Gate::listening);
         if listening && self.config.within(step, iterations) {
@@ -548,11 +544,15 @@ impl PoseRefiner {
             if let Some(g) = state.gate.as_mut().filter(|_| finite) {
                 g.listen(&self.grads, listen);
             }
-        } else if lr > 0.0 && !listening && self.gradients(state, views) {
+        } else if lr > 0.0 && !listening {
             let moves: Vec<bool> = match &state.gate {
                 Some(g) => (0..n).map(|v| g.moves(v)).collect(),
                 None => vec![true; n],
             };
+            // Held still by the gate, no view needs its gradient summed (none was asked for).
+            if !moves.contains(&true) || !self.gradients(state, views) {
+                return self.report(state, lr);
+            }
             adam_step(&self.config, state, &self.grads, lr, &moves);
             let focal_lr = lr * self.config.focal_lr / self.config.lr;
             let mut models = vec![false; state.focal.len()];
@@ -566,9 +566,19 @@ impl PoseRefiner {
                 remove_gauge(&self.c2w, &self.centres, &mut state.corrections);
             }
         }
+        self.report(state, lr)
+    }
+
+    /// What an update at learning rate `lr` left: the corrections' mean size.
+    fn report(&self, state: &PoseState, lr: f64) -> PoseStep {
+        let n = state.corrections.len().max(1) as f64;
+        let mut report = PoseStep {
+            lr,
+            ..Default::default()
+        };
         for p in &state.corrections {
-            report.mean_rotation += p.omega.norm() / n.max(1) as f64;
-            report.mean_translation += p.t.norm() / n.max(1) as f64;
+            report.mean_rotation += p.omega.norm() / n;
+            report.mean_translation += p.t.norm() / n;
         }
         report
     }
